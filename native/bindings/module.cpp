@@ -1,0 +1,9 @@
+#include "bindings.hpp"
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "seamfit compiled core: signed distance fields, quasistatic simulation, optimization";
+  seamfit::bindings::bind_device(m);
+  seamfit::bindings::bind_body(m);
+  seamfit::bindings::bind_sim(m);
+  seamfit::bindings::bind_opt(m);
+}

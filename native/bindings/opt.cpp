@@ -1,0 +1,9 @@
+#include "bindings.hpp"
+
+namespace py = pybind11;
+
+namespace seamfit::bindings {
+
+void bind_opt(py::module_& m) { (void)m; }
+
+}  // namespace seamfit::bindings

@@ -1,0 +1,1 @@
+// Translation unit anchoring the core library; domain code lives beside it.

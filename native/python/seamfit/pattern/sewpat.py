@@ -1,0 +1,198 @@
+"""Read and write the ``sewpat-1`` JSON format losslessly.
+
+Known keys become typed fields; every other key is kept in the object's ``extra``
+and written back unchanged, so read -> write -> read gives equal data.
+Derived keys (``n_vertices``, ``area_cm2``) are recomputed on write.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import PatternError
+from ..fileio import atomic_write_text
+from .model import Edge, Panel, Pattern, Placement, Stitch, StitchSide
+
+FORMAT = "sewpat-1"
+
+_PATTERN_KEYS = {"format", "garment_type", "garment_id", "body_id", "fabric", "panels", "stitches"}
+_PANEL_KEYS = {"name", "outline_cm", "orientation", "nodes", "corners", "landmarks", "edges",
+               "placement", "n_vertices", "area_cm2"}
+_EDGE_KEYS = {"id", "start", "end", "kind", "p0", "p1", "ctrl", "arc", "length_cm", "label"}
+_PLACEMENT_KEYS = {"kind", "rotation_matrix", "translation_m", "side"}
+_STITCH_KEYS = {"kind", "a", "b", "orientation", "gathered", "length_a_cm", "length_b_cm"}
+_SIDE_KEYS = {"panel", "range", "edge", "landmarks"}
+
+
+def _rest(d: dict, known: set) -> dict:
+    return {k: v for k, v in d.items() if k not in known}
+
+
+def _need(d: dict, key: str, where: str) -> Any:
+    if key not in d:
+        raise PatternError(f"{where}: missing key {key!r}")
+    return d[key]
+
+
+def _pair(v, where: str) -> tuple[float, float]:
+    try:
+        a, b = v
+        return (float(a), float(b))
+    except (TypeError, ValueError) as exc:
+        raise PatternError(f"{where}: expected a 2D point [u, v], got {v!r}") from exc
+
+
+def _edge_from(d: dict, where: str) -> Edge:
+    return Edge(
+        id=int(_need(d, "id", where)), start=int(_need(d, "start", where)), end=int(_need(d, "end", where)),
+        kind=str(_need(d, "kind", where)),
+        p0=_pair(_need(d, "p0", where), where + ".p0"), p1=_pair(_need(d, "p1", where), where + ".p1"),
+        ctrl=[_pair(c, where + ".ctrl") for c in d.get("ctrl", [])] if "ctrl" in d else [],
+        arc=d.get("arc"), length_cm=d.get("length_cm"), label=d.get("label"),
+        extra={**_rest(d, _EDGE_KEYS), **({"_has_ctrl": True} if "ctrl" in d else {})},
+    )
+
+
+def _placement_from(d: dict, where: str) -> Placement:
+    rot = np.asarray(_need(d, "rotation_matrix", where), dtype=float)
+    tr = np.asarray(_need(d, "translation_m", where), dtype=float)
+    if rot.shape != (3, 3) or tr.shape != (3,):
+        raise PatternError(f"{where}: rotation_matrix must be 3x3 and translation_m a 3-vector")
+    return Placement(kind=str(d.get("kind", "hint")), rotation=rot, translation_m=tr,
+                     side=d.get("side"), extra=_rest(d, _PLACEMENT_KEYS))
+
+
+def _panel_from(d: dict, where: str) -> Panel:
+    name = str(_need(d, "name", where))
+    where = f"{where} ({name!r})"
+    outline = np.asarray(_need(d, "outline_cm", where), dtype=float)
+    if outline.ndim != 2 or outline.shape[1] != 2 or len(outline) < 3:
+        raise PatternError(f"{where}: outline_cm must be a list of at least 3 [u, v] points")
+    return Panel(
+        name=name, outline_cm=outline, orientation=str(d.get("orientation", "ccw")),
+        nodes=[int(i) for i in d.get("nodes", [])], corners=[int(i) for i in d.get("corners", [])],
+        landmarks={str(k): int(v) for k, v in d.get("landmarks", {}).items()},
+        edges=[_edge_from(e, f"{where} edge {k}") for k, e in enumerate(d.get("edges", []))],
+        placement=_placement_from(_need(d, "placement", where), where + " placement"),
+        extra=_rest(d, _PANEL_KEYS),
+    )
+
+
+def _side_from(d: dict, where: str) -> StitchSide:
+    r = _need(d, "range", where)
+    return StitchSide(panel=str(_need(d, "panel", where)), range=(int(r[0]), int(r[1])),
+                      edge=d.get("edge"), landmarks=d.get("landmarks"), extra=_rest(d, _SIDE_KEYS))
+
+
+def pattern_from_dict(d: dict, source: str = "<dict>") -> Pattern:
+    if d.get("format") != FORMAT:
+        raise PatternError(f"{source}: not a {FORMAT} pattern (format = {d.get('format')!r})")
+    panels = [_panel_from(p, f"{source}: panel {k}") for k, p in enumerate(_need(d, "panels", source))]
+    stitches = []
+    for k, s in enumerate(d.get("stitches", [])):
+        w = f"{source}: stitch {k}"
+        stitches.append(Stitch(
+            kind=str(s.get("kind", "seam")), a=_side_from(_need(s, "a", w), w + ".a"),
+            b=_side_from(_need(s, "b", w), w + ".b"), orientation=str(s.get("orientation", "reversed")),
+            gathered=bool(s.get("gathered", False)), length_a_cm=s.get("length_a_cm"),
+            length_b_cm=s.get("length_b_cm"), extra=_rest(s, _STITCH_KEYS)))
+    return Pattern(panels=panels, stitches=stitches, garment_type=d.get("garment_type"),
+                   garment_id=d.get("garment_id"), body_id=d.get("body_id"),
+                   fabric=dict(d.get("fabric", {})), source_file=source, extra=_rest(d, _PATTERN_KEYS))
+
+
+def read_sewpat(path: str | Path) -> Pattern:
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise PatternError(f"{path}: cannot read pattern file ({exc.strerror})") from exc
+    try:
+        d = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise PatternError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from exc
+    if not isinstance(d, dict):
+        raise PatternError(f"{path}: a sewpat-1 file holds a JSON object")
+    return pattern_from_dict(d, str(path))
+
+
+def _num(x: float) -> float:
+    return float(x)
+
+
+def _edge_to(e: Edge) -> dict:
+    extra = dict(e.extra)
+    has_ctrl = extra.pop("_has_ctrl", bool(e.ctrl))
+    d: dict[str, Any] = {"id": e.id, "start": e.start, "end": e.end, "kind": e.kind,
+                         "p0": [_num(c) for c in e.p0], "p1": [_num(c) for c in e.p1]}
+    if has_ctrl:
+        d["ctrl"] = [[_num(c) for c in p] for p in e.ctrl]
+    if e.arc is not None:
+        d["arc"] = e.arc
+    if e.length_cm is not None:
+        d["length_cm"] = e.length_cm
+    if e.label is not None:
+        d["label"] = e.label
+    d.update(extra)
+    return d
+
+
+def _side_to(s: StitchSide) -> dict:
+    d: dict[str, Any] = {"panel": s.panel, "range": [int(s.range[0]), int(s.range[1])]}
+    if s.edge is not None:
+        d["edge"] = s.edge
+    if s.landmarks is not None:
+        d["landmarks"] = list(s.landmarks)
+    d.update(s.extra)
+    return d
+
+
+def pattern_to_dict(p: Pattern) -> dict:
+    panels = []
+    for pn in p.panels:
+        pl = pn.placement
+        pd: dict[str, Any] = {
+            "name": pn.name, "n_vertices": pn.n_vertices,
+            "outline_cm": [[_num(u), _num(v)] for u, v in pn.outline_cm],
+            "orientation": pn.orientation, "area_cm2": round(abs(pn.signed_area_cm2()), 3),
+            "nodes": list(pn.nodes), "corners": list(pn.corners), "landmarks": dict(pn.landmarks),
+            "edges": [_edge_to(e) for e in pn.edges],
+            "placement": {"kind": pl.kind, "translation_m": [_num(c) for c in pl.translation_m],
+                          "rotation_matrix": [[_num(c) for c in row] for row in pl.rotation],
+                          **({"side": pl.side} if pl.side is not None else {}), **pl.extra},
+        }
+        pd.update(pn.extra)
+        panels.append(pd)
+    stitches = []
+    for s in p.stitches:
+        sd: dict[str, Any] = {"kind": s.kind, "a": _side_to(s.a), "b": _side_to(s.b),
+                              "orientation": s.orientation, "gathered": s.gathered}
+        if s.length_a_cm is not None:
+            sd["length_a_cm"] = s.length_a_cm
+        if s.length_b_cm is not None:
+            sd["length_b_cm"] = s.length_b_cm
+        sd.update(s.extra)
+        stitches.append(sd)
+    d: dict[str, Any] = {"format": FORMAT}
+    for key in ("garment_type", "garment_id", "body_id"):
+        if getattr(p, key) is not None:
+            d[key] = getattr(p, key)
+    d["fabric"] = p.fabric
+    d.update(p.extra)
+    d["panels"] = panels
+    d["stitches"] = stitches
+    return d
+
+
+def write_sewpat(pattern: Pattern, path: str | Path) -> Path:
+    """Write atomically (temporary file + rename): an existing file is replaced whole or not at all."""
+    d = pattern_to_dict(pattern)
+    for pn in d["panels"]:
+        for u, v in pn["outline_cm"]:
+            if not (math.isfinite(u) and math.isfinite(v)):
+                raise PatternError(f"{path}: panel {pn['name']!r} has a non-finite outline point; not written")
+    return atomic_write_text(Path(path), json.dumps(d, indent=1) + "\n")

@@ -115,3 +115,48 @@ def sphere_sdf(center=(0, 0, 0), radius=0.1, spacing=0.01, pad=0.1):
 
 def floor_sdf(z=0.0, size=1.0, spacing=0.05):
     return sdf_grid(lambda p: p[:, 2] - z, (-size, -size, z - size), (size, size, z + size), spacing)
+
+
+def revolution_sdf(z_profile, r_profile, spacing=0.01, pad=0.1):
+    """Closed solid of revolution about the z axis with radius r(z) (piecewise
+    linear through the given samples, closed by flat caps): exact signed distance
+    computed in the (r, z) half-plane."""
+    z_profile = np.asarray(z_profile, float)
+    r_profile = np.asarray(r_profile, float)
+    # Profile polygon in (r, z): axis -> bottom cap -> side -> top cap -> axis.
+    poly = np.vstack([[0.0, z_profile[0]], np.c_[r_profile, z_profile], [0.0, z_profile[-1]]])
+
+    def exact(q):
+        best = np.full(len(q), np.inf)
+        a, b = poly[:-1], poly[1:]
+        for k in range(len(a)):
+            ab = b[k] - a[k]
+            t = np.clip(((q - a[k]) @ ab) / max(ab @ ab, 1e-30), 0, 1)
+            best = np.minimum(best, np.linalg.norm(q - (a[k] + t[:, None] * ab), axis=1))
+        zq = q[:, 1]
+        rin = np.interp(zq, z_profile, r_profile)
+        inside = (zq >= z_profile[0]) & (zq <= z_profile[-1]) & (q[:, 0] < rin)
+        return np.where(inside, -best, best)
+
+    def fn(p):
+        # The field depends on (r, z) only: tabulate it finely in 2D, then interpolate.
+        from scipy.ndimage import map_coordinates
+        r = np.hypot(p[:, 0], p[:, 1])
+        h = spacing / 4
+        r_ax = np.arange(0.0, r.max() + 2 * h, h)
+        z_ax = np.arange(p[:, 2].min() - h, p[:, 2].max() + 2 * h, h)
+        R, Z = np.meshgrid(r_ax, z_ax, indexing="ij")
+        table = exact(np.c_[R.ravel(), Z.ravel()]).reshape(R.shape)
+        return map_coordinates(table, [r / h, (p[:, 2] - z_ax[0]) / h], order=1)
+
+    rmax = r_profile.max() + pad
+    return sdf_grid(fn, (-rmax, -rmax, z_profile[0] - pad), (rmax, rmax, z_profile[-1] + pad), spacing)
+
+
+def hourglass_sdf(spacing=0.01):
+    """A torso-like solid: waist r = 0.11 m at z = 0.45, hips r = 0.15 m at
+    z = 0.1, flaring to 0.25 m at the bottom (z = -0.3) so nothing slides off."""
+    z = np.linspace(-0.3, 0.7, 41)
+    r = 0.13 + 0.02 * np.cos(np.pi * (z - 0.1) / 0.35)
+    r = np.where(z < 0.1, 0.15 + 0.25 * (0.1 - z) ** 2 / 0.16, np.where(z > 0.45, 0.11, r))
+    return revolution_sdf(z, r, spacing=spacing, pad=0.12)

@@ -27,6 +27,7 @@ def make(mesh, term=None, sdf=None, mu=0.01, **over):
     pr.gravity = [0.3, -0.2, -9.81] if on("gravity") else [0.0, 0.0, 0.0]
     pr.mu = mu if on("barrier") else 0.0
     pr.barrier_length = 0.1
+    pr.barrier_distance = over.get("dhat", 0.06)  # reaches the test states
     sim = core().Simulator(0.01 * mesh.uv_cm, mesh.triangles, mesh.sewing_pairs, pr)
     if sdf is not None:
         sim.set_sdf(sdf.values, sdf.origin, sdf.spacing)
@@ -233,7 +234,8 @@ def test_sewing_energy_is_quadratic_in_the_gap():
 
 def test_barrier_equilibrium_gap_is_mu_times_length():
     # A small flat sheet resting on a floor under its own weight: every vertex
-    # balances c_i / phi = m_i g, so phi = mu * l_b exactly.
+    # balances c_i (1 - phi/d)^2 / phi = m_i g, i.e. mu l_b (1 - phi/d)^2 = phi
+    # (phi ~ mu l_b for d >> mu l_b).
     mesh = flat_sheet(width_cm=4, height_cm=4, nu=2, nv=2)
     mesh.x0 = mesh.x0 + np.array([0.0, 0.0, 0.02])
     for mu in (1e-3, 1e-2, 5e-2):
@@ -243,8 +245,14 @@ def test_barrier_equilibrium_gap_is_mu_times_length():
         sim = Simulator(mesh, floor_sdf(z=0.0, size=0.3, spacing=0.05), fabric, settings)
         res = sim.drape()
         assert res.converged, res.message
-        np.testing.assert_allclose(res.x[:, 2], mu * 0.1, rtol=1e-6)
-        assert res.min_phi_mm == pytest.approx(mu * 100.0, rel=1e-6)
+        a, d = mu * 0.1, settings.barrier_distance
+        # root of phi = a (1 - phi/d)^2 in (0, d)
+        phi = ((2 * a / d + 1) - np.sqrt((2 * a / d + 1) ** 2 - 4 * a * a / d ** 2)) / (2 * a / d ** 2)
+        assert 0 < phi < d and phi == pytest.approx(a * (1 - phi / d) ** 2, rel=1e-12)
+        np.testing.assert_allclose(res.x[:, 2], phi, rtol=1e-6)
+        assert res.min_phi_mm == pytest.approx(phi * 1000.0, rel=1e-6)
+        if mu <= 1e-2:
+            assert phi == pytest.approx(a, rel=0.25)
 
 
 def test_sdf_hessian_outside_grid_is_consistent():
@@ -272,3 +280,19 @@ def test_evaluation_inside_body_is_an_error_not_nan():
         sim.force(x)
     with pytest.raises(SolveError, match="shape"):
         sim.force(x[:3])
+
+
+def test_barrier_vanishes_smoothly_beyond_its_distance():
+    mesh = flat_sheet(width_cm=4, height_cm=4, nu=2, nv=2)
+    sdf = floor_sdf(z=0.0, size=0.3, spacing=0.05)
+    sim = make(mesh, "barrier", sdf, dhat=0.01)
+    for z, active in ((0.0101, False), (0.0099, True), (0.002, True)):
+        x = mesh.x0 + np.array([0, 0, z])
+        e, _ = sim.energy(x)
+        f = sim.force(x)
+        assert (e > 0) == active and (np.abs(f).max() > 0) == active
+        assert np.all(f[:, 2] >= 0)  # it only ever pushes away from the body
+    # C1 at the activation distance: the force tends to zero there.
+    f_near = sim.force(mesh.x0 + np.array([0, 0, 0.01 - 1e-6]))
+    f_in = sim.force(mesh.x0 + np.array([0, 0, 0.005]))
+    assert np.abs(f_near).max() < 1e-6 * np.abs(f_in).max()

@@ -113,7 +113,8 @@ void bind_sim(py::module_& m) {
             p.gravity = {g[0], g[1], g[2]};
           })
       .def_readwrite("mu", &SimParams::mu, "dimensionless barrier strength")
-      .def_readwrite("barrier_length", &SimParams::barrier_length, "barrier length scale l_b (m)");
+      .def_readwrite("barrier_length", &SimParams::barrier_length, "barrier length scale l_b (m)")
+      .def_readwrite("barrier_distance", &SimParams::barrier_distance, "barrier activation distance d (m)");
 
   py::class_<SolveSettings>(m, "SolveSettings", "Solver controls.")
       .def(py::init<>())
@@ -126,7 +127,8 @@ void bind_sim(py::module_& m) {
       .def_readwrite("warmup", &SolveSettings::warmup)
       .def_readwrite("check_every", &SolveSettings::check_every)
       .def_readwrite("progress_every", &SolveSettings::progress_every)
-      .def_readwrite("history_every", &SolveSettings::history_every);
+      .def_readwrite("history_every", &SolveSettings::history_every)
+      .def_readwrite("newton_exact_first", &SolveSettings::newton_exact_first);
 
   py::class_<Simulator>(m, "Simulator", "Quasistatic garment simulator (Wang 2018, section 4) on the CPU.")
       .def(py::init([](DArr p, IArr tris, IArr sew, const SimParams& params) {
@@ -152,6 +154,8 @@ void bind_sim(py::module_& m) {
       .def_property_readonly("has_sdf", &Simulator::has_sdf)
       .def_property_readonly("projection_gap", &Simulator::projection_gap)
       .def_property("params", &Simulator::params, &Simulator::set_params)
+      .def_property("threads", &Simulator::threads, &Simulator::set_threads,
+                    "OpenMP threads (set 0 for automatic: 1 below 3000 vertices)")
       .def("set_sdf",
            [](Simulator& s, FArr values, DArr origin, double spacing) {
              if (values.ndim() != 3) throw SimError("SDF values must be a 3D array shaped (nz, ny, nx)");

@@ -40,6 +40,7 @@ Simulator::Simulator(int n, const double* p, int n_tris, const int32_t* tris, in
                      const SimParams& params)
     : n_(n), params_(params) {
   if (n <= 0) throw SimError("simulator: the mesh has no vertices");
+  set_threads(0);
   if (n_tris <= 0) throw SimError("simulator: the mesh has no triangles");
   for (int i = 0; i < 2 * n; ++i)
     if (!std::isfinite(p[i])) throw SimError("simulator: pattern coordinate " + std::to_string(i / 2) + " is not finite");
@@ -234,6 +235,8 @@ SdfSample Simulator::sdf_at(Vec3 p) const { return sdf_sample(sdf_, p); }
 
 void Simulator::set_params(const SimParams& params) {
   const bool mass_changed = params.density != params_.density;
+  if (params.mu > 0 && !(params.barrier_distance > 0))
+    throw SimError("simulator: the barrier distance must be positive");
   const bool barrier_changed = params.mu != params_.mu || params.barrier_length != params_.barrier_length;
   params_ = params;
   if (mass_changed) update_rest_state();
@@ -299,7 +302,7 @@ void Simulator::update_rest_state() {
   if (!(weight_norm_ > 0)) weight_norm_ = 1.0;  // massless cloth: absolute residual
   hinge_K_.assign(4 * size_t(Hn), 0.0);
   hinge_w_.assign(Hn, 0.0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
   for (int h = 0; h < Hn; ++h) {
     const int* hv = &hinge_v_[4 * h];
     const HingeStencil<double> s = hinge_stencil<double>(&p_[2 * hv[0]], &p_[2 * hv[1]], &p_[2 * hv[2]], &p_[2 * hv[3]]);
@@ -308,7 +311,7 @@ void Simulator::update_rest_state() {
   }
   // Q on the neighbour pattern, gathered per vertex.
   Q_.assign(nbr_idx_.size(), 0.0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
   for (int v = 0; v < n_; ++v) {
     double* row = Q_.data() + nbr_ptr_[v];
     for (int q = vh_ptr_[v]; q < vh_ptr_[v + 1]; ++q) {
@@ -326,9 +329,18 @@ void Simulator::update_barrier_weights() {
   for (int v = 0; v < n_; ++v) barrier_c_[v] = s * std::max(mass_[v], m_floor_);
 }
 
+void Simulator::set_threads(int threads) {
+  // Below a few thousand vertices a parallel region costs more than it saves
+  // (and much more on a loaded machine).
+  constexpr int kParallelMinVertices = 3000;
+  if (threads > 0) threads_ = threads;
+  else threads_ = n_ < kParallelMinVertices ? 1 : std::max(1, omp_get_max_threads());
+}
+
 double Simulator::projection_gap() const {
   // The rest gap of a vertex pressed by its own weight, bounded to a sane range.
-  return std::min(std::max(params_.mu * params_.barrier_length, 1e-5), 5e-3);
+  const double g = std::min(std::max(params_.mu * params_.barrier_length, 1e-5), 5e-3);
+  return std::min(g, 0.5 * params_.barrier_distance);
 }
 
 int Simulator::first_inside(const double* x, double* phi_out) const {
@@ -344,7 +356,7 @@ int Simulator::first_inside(const double* x, double* phi_out) const {
 }
 
 void Simulator::sample_phi(const double* x, double* phi) const {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
   for (int v = 0; v < n_; ++v)
     phi[v] = has_sdf_ ? sdf_at(vget(x, v)).phi : std::numeric_limits<double>::infinity();
 }
@@ -356,9 +368,10 @@ void Simulator::evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* d
   const bool grav = params_.density > 0 && norm2(gv) > 0;
   const bool bar = has_sdf_ && params_.mu > 0;
   const bool stick = any_sticking_;
+  const double dhat = params_.barrier_distance;
   double e_stretch = 0;
   if (Y > 0) {
-#pragma omp parallel for reduction(+ : e_stretch) schedule(static)
+#pragma omp parallel for reduction(+ : e_stretch) schedule(static) num_threads(threads_)
     for (int e = 0; e < E; ++e) {
       const Vec3 xi = vget(x, spring_v_[2 * e]), xj = vget(x, spring_v_[2 * e + 1]);
       const double L = rest_L_[e], r = shirring_[e];
@@ -368,7 +381,7 @@ void Simulator::evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* d
     }
   }
   double e_sew = 0, e_bend = 0, e_grav = 0, e_stick = 0, e_bar = 0;
-#pragma omp parallel for reduction(+ : e_sew, e_bend, e_grav, e_stick, e_bar) schedule(static)
+#pragma omp parallel for reduction(+ : e_sew, e_bend, e_grav, e_stick, e_bar) schedule(static) num_threads(threads_)
   for (int v = 0; v < n_; ++v) {
     const Vec3 xv = vget(x, v);
     Vec3 g = make_vec3(0, 0, 0);
@@ -410,9 +423,9 @@ void Simulator::evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* d
       if (samples) samples[v] = s;
       const double c = barrier_c_[v];
       if (s.phi > 0) {
-        e_bar += barrier_energy(c, s.phi);
-        g += barrier_grad(c, s);
-        if (diag) D += barrier_hess_psd(c, s);
+        e_bar += barrier_energy(c, dhat, s.phi);
+        g += barrier_grad(c, dhat, s);
+        if (diag) D += barrier_hess_psd(c, dhat, s);
       } else {
         e_bar += std::numeric_limits<double>::infinity();
       }
@@ -447,7 +460,7 @@ double Simulator::force(const double* x, double* f, EnergyTerms* terms) {
 
 double Simulator::residual(const double* f) const {
   double s = 0;
-#pragma omp parallel for reduction(+ : s) schedule(static)
+#pragma omp parallel for reduction(+ : s) schedule(static) num_threads(threads_)
   for (int i = 0; i < 3 * n_; ++i) s += f[i] * f[i];
   return std::sqrt(s) / weight_norm_;
 }
@@ -457,13 +470,13 @@ const Eigen::SparseMatrix<double>& Simulator::hessian(const double* x, bool psd)
   const double Y = params_.stretch_Y, Ys = params_.sewing_Y, kb = params_.bend_kb;
   const bool bar = has_sdf_ && params_.mu > 0;
   if (Y > 0) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
     for (int e = 0; e < E; ++e)
       spring_H_[e] = patch_spring_hess(vget(x, spring_v_[2 * e]), vget(x, spring_v_[2 * e + 1]), rest_L_[e], shirring_[e], Y, psd);
   }
   const int* outer = H_.outerIndexPtr();
   double* val = H_.valuePtr();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
   for (int v = 0; v < n_; ++v) {
     const int deg = nbr_ptr_[v + 1] - nbr_ptr_[v];
     for (int a = 0; a < 3; ++a) std::fill(val + outer[3 * v + a], val + outer[3 * v + a] + 3 * deg, 0.0);
@@ -493,8 +506,8 @@ const Eigen::SparseMatrix<double>& Simulator::hessian(const double* x, bool psd)
       const Vec3 xv = vget(x, v);
       const SdfSample s = sdf_at(xv);
       if (s.phi > 0) {
-        const double c = barrier_c_[v];
-        add(self, psd ? barrier_hess_psd(c, s) : barrier_hess(c, s, sdf_hessian(sdf_, xv)), 1.0);
+        const double c = barrier_c_[v], dh = params_.barrier_distance;
+        add(self, psd ? barrier_hess_psd(c, dh, s) : barrier_hess(c, dh, s, sdf_hessian(sdf_, xv)), 1.0);
       }
     }
   }
@@ -506,14 +519,14 @@ void Simulator::hess_vec(const double* x, const double* vin, double* out, bool p
   const double Y = params_.stretch_Y, Ys = params_.sewing_Y, kb = params_.bend_kb;
   const bool bar = has_sdf_ && params_.mu > 0;
   if (Y > 0) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
     for (int e = 0; e < E; ++e) {
       const int i = spring_v_[2 * e], j = spring_v_[2 * e + 1];
       const Sym3 He = patch_spring_hess(vget(x, i), vget(x, j), rest_L_[e], shirring_[e], Y, psd);
       spring_g_[e] = He * (vget(vin, i) - vget(vin, j));
     }
   }
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
   for (int v = 0; v < n_; ++v) {
     const Vec3 vv = vget(vin, v);
     Vec3 r = make_vec3(0, 0, 0);
@@ -531,8 +544,8 @@ void Simulator::hess_vec(const double* x, const double* vin, double* out, bool p
       const Vec3 xv = vget(x, v);
       const SdfSample s = sdf_at(xv);
       if (s.phi > 0) {
-        const double c = barrier_c_[v];
-        r += (psd ? barrier_hess_psd(c, s) : barrier_hess(c, s, sdf_hessian(sdf_, xv))) * vv;
+        const double c = barrier_c_[v], dh = params_.barrier_distance;
+        r += (psd ? barrier_hess_psd(c, dh, s) : barrier_hess(c, dh, s, sdf_hessian(sdf_, xv))) * vv;
       }
     }
     vset(out, v, r);
@@ -554,7 +567,7 @@ void Simulator::dfdp_T(const double* x, const double* lam, double* out) {
   double* tp = scratch_.data() + o_t;
   double* wv = scratch_.data() + o_w;
   if (Y > 0) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
     for (int e = 0; e < E; ++e) {
       const int i = spring_v_[2 * e], j = spring_v_[2 * e + 1];
       if (L_floored_[e]) { sp[2 * e] = sp[2 * e + 1] = 0; continue; }
@@ -563,7 +576,7 @@ void Simulator::dfdp_T(const double* x, const double* lam, double* out) {
     }
   }
   if (kb > 0) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
     for (int h = 0; h < Hn; ++h) {
       const int* hv = &hinge_v_[4 * h];
       double pp[8];
@@ -580,18 +593,19 @@ void Simulator::dfdp_T(const double* x, const double* lam, double* out) {
   if (mass_terms) {
     // d(lam . f)/dm_v for gravity and the mass-scaled barrier.
     const double sb = params_.mu * params_.barrier_length * kG0;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
       const Vec3 lv = vget(lam, v);
       double w = dot(gv, lv);
       if (bar && mass_[v] >= m_floor_) {
         const SdfSample s = sdf_at(vget(x, v));
-        if (s.phi > 0) w += sb * dot(s.grad, lv) / s.phi;
+        // lam . f = -b'(phi) grad.lam with b' proportional to c = sb * m
+        if (s.phi > 0) w -= sb * barrier_dphi(1.0, params_.barrier_distance, s.phi) * dot(s.grad, lv);
       }
       wv[v] = w;
     }
     const double rho3 = params_.density / 3.0;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
     for (int t = 0; t < T; ++t) {
       const int a = tris_[3 * t], b = tris_[3 * t + 1], c = tris_[3 * t + 2];
       const double s = rho3 * (wv[a] + wv[b] + wv[c]);
@@ -600,7 +614,7 @@ void Simulator::dfdp_T(const double* x, const double* lam, double* out) {
       for (int k = 0; k < 6; ++k) tp[6 * t + k] = s * g[k];
     }
   }
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
   for (int v = 0; v < n_; ++v) {
     double u = 0, w = 0;
     if (Y > 0)
@@ -634,7 +648,7 @@ void Simulator::sewing_gaps(const double* x, double* gaps) const {
 int Simulator::project_outside(double* x, double floor, double target) const {
   if (!has_sdf_ || !(params_.mu > 0)) return 0;
   int count = 0;
-#pragma omp parallel for reduction(+ : count) schedule(static)
+#pragma omp parallel for reduction(+ : count) schedule(static) num_threads(threads_)
   for (int v = 0; v < n_; ++v) {
     Vec3 p = vget(x, v);
     SdfSample s = sdf_at(p);

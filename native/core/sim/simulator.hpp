@@ -40,6 +40,7 @@ struct SimParams {
   Vec3 gravity{0, 0, -9.81};  // m/s^2
   double mu = 0.01;         // dimensionless barrier strength
   double barrier_length = 0.1;  // l_b (m): c_i = mu * l_b * g0 * m_i
+  double barrier_distance = 0.01;  // activation distance d (m): no barrier for phi >= d
 };
 
 // Standard gravity used to scale the barrier weight (kept when gravity is
@@ -62,6 +63,7 @@ struct SolveSettings {
   int check_every = 8;       // energy check / checkpoint interval (Chebyshev)
   int progress_every = 50;   // callback interval (iterations)
   int history_every = 10;    // residual history interval (iterations)
+  bool newton_exact_first = true;  // Newton: try the exact Hessian before the PSD one
 };
 
 struct SolveReport {
@@ -135,6 +137,10 @@ class Simulator {
   // Moves vertices with phi < floor outside, to phi = target. Returns the count.
   int project_outside(double* x, double floor, double target) const;
   double projection_gap() const;  // barrier rest gap mu * l_b (bounded)
+  // OpenMP threads for this simulator: 0 = automatic (one thread for small
+  // meshes, where fork/join costs more than the work; all threads otherwise).
+  void set_threads(int threads);
+  int threads() const { return threads_; }
   SolveReport solve(double* x, const SolveSettings& s, const ProgressFn& progress,
                     const std::atomic<bool>* cancel = nullptr);
 
@@ -153,6 +159,7 @@ class Simulator {
   SdfSample sdf_at(Vec3 p) const;
 
   int n_;
+  int threads_ = 1;
   SimParams params_;
   std::vector<double> p_;          // 2n
   std::vector<int32_t> tris_;      // 3T

@@ -32,6 +32,13 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// Vertices closer to the body than this (m) are projected out; anything above
+// is a legitimate barrier state (pressed contact settles at tiny gaps).
+constexpr double kProjectFloor = 1e-9;
+// A vertex step may always be this long (m), thinner than any body part, so a
+// bounded step cannot jump through the body between two outside states.
+constexpr double kFreeStep = 0.005;
+
 inline double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
@@ -57,7 +64,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   const int n3 = 3 * n_;
   const bool bar = has_sdf_ && params_.mu > 0;
   const double gap = projection_gap();
-  if (bar) rep.projections += project_outside(x, 0.01 * gap, gap);
+  if (bar) rep.projections += project_outside(x, kProjectFloor, gap);
 
   std::vector<double> xc(x, x + n3), xp(xc), ck(xc), f(n3), d(n3);
   std::vector<Sym3> D(n_);
@@ -69,7 +76,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
     if (!std::isfinite(E) && bar) {
       // A step crossed the body despite the step limit (curvature): put the
       // offending vertices back outside and evaluate again.
-      rep.projections += project_outside(xx.data(), 0.01 * gap, gap);
+      rep.projections += project_outside(xx.data(), kProjectFloor, gap);
       evaluate(xx.data(), f.data(), &et, D.data(), S.data());
       E = et.total();
     }
@@ -130,7 +137,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
 
     // Block-Jacobi step.
     double dn2 = 0;
-#pragma omp parallel for reduction(+ : dn2) schedule(static)
+#pragma omp parallel for reduction(+ : dn2) schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
       const Vec3 fv = {f[3 * v], f[3 * v + 1], f[3 * v + 2]};
       Vec3 dv;
@@ -163,7 +170,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
       omega = 4.0 / (4.0 - rho * rho * omega);
     }
     // Chebyshev combination and the barrier-safe step limit.
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
       Vec3 dv;
       dv.x = omega * d[3 * v] + (omega - 1.0) * (xc[3 * v] - xp[3 * v]);
@@ -177,6 +184,8 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
           const double dn = dot(dv, nrm), lim = -beta * s.phi;
           if (dn < lim) dv -= (dn - lim) * nrm;
         }
+        const double len = norm(dv), cap = std::max(0.9 * s.phi, kFreeStep);
+        if (len > cap) dv = (cap / len) * dv;
       }
       xp[3 * v] = xc[3 * v];
       xp[3 * v + 1] = xc[3 * v + 1];
@@ -226,7 +235,7 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
   const int n3 = 3 * n_;
   const bool bar = has_sdf_ && params_.mu > 0;
   const double gap = projection_gap();
-  if (bar) rep.projections += project_outside(x, 0.01 * gap, gap);
+  if (bar) rep.projections += project_outside(x, kProjectFloor, gap);
 
   Eigen::Map<Eigen::VectorXd> X(x, n3);
   Eigen::VectorXd f(n3), dx(n3), xt(n3);
@@ -265,29 +274,41 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
       rep.message = "cancelled at Newton iteration " + std::to_string(it) + " (relative residual " + fmt(res) + ")";
       break;
     }
-    hessian(x, true);
-    double mean_diag = 0;
-    for (int c = 0; c < n3; ++c) mean_diag += H_.coeff(c, c);
-    mean_diag = std::max(mean_diag / n3, 1e-300);
-    if (!analysed) {
-      ldlt.analyzePattern(H_);
-      analysed = true;
-    }
-    // Factorize, adding a diagonal shift until the matrix is positive definite.
+    // Exact Hessian when it is positive definite (quadratic convergence near a
+    // strict minimum); otherwise the PSD-projected one with a Levenberg shift.
     bool ok = false;
-    Eigen::SparseMatrix<double> Hs;
-    for (int tries = 0; tries < 12; ++tries) {
-      const double delta = shift * mean_diag;
-      if (delta > 0) {
-        Hs = H_;
-        for (int c = 0; c < n3; ++c) Hs.coeffRef(c, c) += delta;
-        ldlt.factorize(Hs);
-      } else {
-        ldlt.factorize(H_);
+    if (st.newton_exact_first) {
+      hessian(x, false);
+      if (!analysed) {
+        ldlt.analyzePattern(H_);
+        analysed = true;
       }
+      ldlt.factorize(H_);
       ok = ldlt.info() == Eigen::Success && (ldlt.vectorD().array() > 0).all();
-      if (ok) break;
-      shift = shift > 0 ? 10 * shift : 1e-10;
+    }
+    if (!ok) {
+      hessian(x, true);
+      double mean_diag = 0;
+      for (int c = 0; c < n3; ++c) mean_diag += H_.coeff(c, c);
+      mean_diag = std::max(mean_diag / n3, 1e-300);
+      if (!analysed) {
+        ldlt.analyzePattern(H_);
+        analysed = true;
+      }
+      Eigen::SparseMatrix<double> Hs;
+      for (int tries = 0; tries < 12; ++tries) {
+        const double delta = shift * mean_diag;
+        if (delta > 0) {
+          Hs = H_;
+          for (int c = 0; c < n3; ++c) Hs.coeffRef(c, c) += delta;
+          ldlt.factorize(Hs);
+        } else {
+          ldlt.factorize(H_);
+        }
+        ok = ldlt.info() == Eigen::Success && (ldlt.vectorD().array() > 0).all();
+        if (ok) break;
+        shift = shift > 0 ? 10 * shift : 1e-10;
+      }
     }
     if (!ok) {
       rep.message = "not converged: the stiffness matrix could not be factorized (relative residual " + fmt(res) + ")";
@@ -298,22 +319,24 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
       rep.message = "not converged: the Newton step is not finite (relative residual " + fmt(res) + ")";
       break;
     }
-    // Largest step that keeps every vertex outside, to first order.
+    // Backtracking; the energy is +inf for any state with a vertex inside the
+    // body, so accepted steps end outside. Against tunnelling through a thin
+    // part of the body, no vertex moves further than its distance to the body
+    // (the SDF is 1-Lipschitz) or kFreeStep, whichever is larger.
     double tmax = 1.0;
     if (bar) {
       for (int v = 0; v < n_; ++v) {
-        const SdfSample s = sdf_at(make_vec3(x[3 * v], x[3 * v + 1], x[3 * v + 2]));
-        const double gn = norm(s.grad);
-        if (gn < 1e-12) continue;
-        const double dn = (dx[3 * v] * s.grad.x + dx[3 * v + 1] * s.grad.y + dx[3 * v + 2] * s.grad.z) / gn;
-        if (dn < 0) tmax = std::min(tmax, 0.9 * s.phi / -dn);
+        const double len = std::sqrt(dx[3 * v] * dx[3 * v] + dx[3 * v + 1] * dx[3 * v + 1] + dx[3 * v + 2] * dx[3 * v + 2]);
+        if (len <= 0) continue;
+        const double phi = sdf_at(make_vec3(x[3 * v], x[3 * v + 1], x[3 * v + 2])).phi;
+        tmax = std::min(tmax, std::max(0.9 * phi, kFreeStep) / len);
       }
     }
     const double slope = -f.dot(dx);  // dE/dt at t = 0 (negative)
     double t = tmax;
     bool accepted = false;
     EnergyTerms et_t;
-    for (int ls = 0; ls < 40; ++ls) {
+    for (int ls = 0; ls < 60; ++ls) {
       xt = X + t * dx;
       const double Et = energy(xt.data(), &et_t);
       if (std::isfinite(Et) && Et <= E + 1e-4 * t * slope + energy_slack(et_t)) {

@@ -1,5 +1,5 @@
 // Log barrier against the body's signed distance field (Wang 2018, Eq. 4):
-//   B_i = -c_i log(phi(x_i)),   c_i = mu * l_b * g * m_i.
+//   B_i = -c_i log(phi(x_i)) near the body,   c_i = mu * l_b * g * m_i.
 // The paper's constant mu (0.01, unitless there) is rescaled per vertex by the
 // vertex weight m_i g times a length l_b, so mu is dimensionless and a vertex
 // resting on the body under its own weight settles at phi = mu * l_b (1 mm for
@@ -77,14 +77,36 @@ SF_HD Sym3 sdf_hessian(const SdfGridView& g, Vec3 p) {
   return H;
 }
 
-// Energy, gradient and Hessian of -c log(phi) at one vertex, given the SDF
-// sample. The PSD variant keeps the Gauss-Newton part c grad grad^T / phi^2 and
-// drops the curvature term -c Hphi / phi, which can be indefinite.
-SF_HD double barrier_energy(double c, double phi) { return -c * log(phi); }
-SF_HD Vec3 barrier_grad(double c, const SdfSample& s) { return (-c / s.phi) * s.grad; }
-SF_HD Sym3 barrier_hess_psd(double c, const SdfSample& s) { return sym3_outer(s.grad, c / (s.phi * s.phi)); }
-SF_HD Sym3 barrier_hess(double c, const SdfSample& s, const Sym3& sdf_H) {
-  return sym3_outer(s.grad, c / (s.phi * s.phi)) + (-c / s.phi) * sdf_H;
+// Energy, gradient and Hessian of the barrier at one vertex, given the SDF
+// sample. With s = phi / d (d: activation distance)
+//   b(phi) = c * (-log s + (s - 1) - (s - 1)^2 / 2)   for s < 1, else 0,
+// i.e. the paper's -c log(phi) plus the quadratic Taylor polynomial that makes
+// b, b' and b'' vanish at phi = d. Near the body (phi << d) force and
+// stiffness are those of -c log(phi): b' = -c (1 - s)^2 / phi, b'' = c/phi^2 - c/d^2.
+// Beyond d the barrier is zero, so it neither pushes far-away cloth nor lets
+// the energy fall without bound (-log phi -> -inf as phi -> inf).
+// The PSD variant keeps b'' grad grad^T (b'' >= 0) and drops the curvature
+// term b' Hphi, which can be indefinite.
+SF_HD double barrier_energy(double c, double d, double phi) {
+  if (phi >= d) return 0.0;
+  const double s = phi / d, t = s - 1.0;
+  return c * (-log(s) + t - 0.5 * t * t);
+}
+SF_HD double barrier_dphi(double c, double d, double phi) {
+  if (phi >= d) return 0.0;
+  const double t = 1.0 - phi / d;
+  return -c * t * t / phi;
+}
+SF_HD double barrier_d2phi(double c, double d, double phi) {
+  if (phi >= d) return 0.0;
+  return c / (phi * phi) - c / (d * d);
+}
+SF_HD Vec3 barrier_grad(double c, double d, const SdfSample& s) { return barrier_dphi(c, d, s.phi) * s.grad; }
+SF_HD Sym3 barrier_hess_psd(double c, double d, const SdfSample& s) {
+  return sym3_outer(s.grad, barrier_d2phi(c, d, s.phi));
+}
+SF_HD Sym3 barrier_hess(double c, double d, const SdfSample& s, const Sym3& sdf_H) {
+  return sym3_outer(s.grad, barrier_d2phi(c, d, s.phi)) + barrier_dphi(c, d, s.phi) * sdf_H;
 }
 
 }  // namespace seamfit::sim

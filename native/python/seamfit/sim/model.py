@@ -64,10 +64,11 @@ class SimSettings:
     """
     method: str = "chebyshev"          # "chebyshev" | "newton"
     tolerance: float = 1e-3
-    max_iterations: int = 40000        # per stage (Newton: 200)
+    max_iterations: int = 40000        # per stage (Newton: at most 600)
     max_seconds: float = 0.0           # per stage, 0 = unlimited
     mu: float = 0.01
     barrier_length: float = 0.1
+    barrier_distance: float = 0.01     # no barrier beyond 1 cm from the body
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
     rho: float = 0.0                   # Chebyshev spectral radius, 0 = automatic
     alpha: float = 0.9                 # Jacobi step length
@@ -75,6 +76,7 @@ class SimSettings:
     check_every: int = 8
     progress_every: int = 50
     history_every: int = 10
+    threads: int = 0                   # OpenMP threads, 0 = automatic
     # Dressing stages (see Simulator.drape).
     sew_first: bool = True             # stage 1: close the seams with gravity off
     sew_stage_tolerance: float = 1e-2
@@ -87,6 +89,8 @@ class SimSettings:
             raise SolveError("tolerance must be > 0")
         if not (0 <= self.mu <= 1):
             raise SolveError(f"mu must lie in [0, 1], got {self.mu}")
+        if not (self.barrier_distance > 0):
+            raise SolveError("barrier_distance must be > 0")
         if self.max_iterations < 0:
             raise SolveError("max_iterations must be >= 0")
 
@@ -162,6 +166,7 @@ class Simulator:
         # afterwards, so d/dp does not see it).
         self.mean_edge = float(np.mean(self._core.rest_lengths))
         self._apply_params()
+        self._core.threads = int(self.settings.threads)
         if sdf is not None:
             self.set_body(sdf)
         if shirring is not None:
@@ -178,6 +183,7 @@ class Simulator:
         pr.gravity = [gravity_scale * g for g in s.gravity]
         pr.mu = s.mu
         pr.barrier_length = s.barrier_length
+        pr.barrier_distance = s.barrier_distance
         return pr
 
     def _apply_params(self, gravity_scale: float = 1.0, sewing_scale: float = 1.0):
@@ -269,7 +275,7 @@ class Simulator:
         st.method = 1 if m == "newton" else 0
         st.tolerance = float(tolerance if tolerance is not None else s.tolerance)
         mi = s.max_iterations if max_iterations is None else max_iterations
-        st.max_iterations = int(min(mi, 200) if m == "newton" and max_iterations is None else mi)
+        st.max_iterations = int(min(mi, 600) if m == "newton" and max_iterations is None else mi)
         st.max_seconds = float(s.max_seconds)
         st.rho = float(s.rho)
         st.alpha = float(s.alpha)

@@ -145,8 +145,7 @@ def _text(parent, x: float, y: float, text: str, size: float, color: str, cls: s
     return t
 
 
-def _draw_panel(g, slot: _Slot, panel: Panel, pattern: Pattern, k: int, color: str,
-                base: bool) -> None:
+def _draw_panel(g, slot: _Slot, panel: Panel, pattern: Pattern, color: str, base: bool) -> None:
     o = np.asarray(panel.outline_cm, dtype=float)
     sheet = slot.sheet(panel)
     pg = _el(g, "g", class_="panel", data_panel=panel.name)
@@ -247,7 +246,7 @@ def write_svg(path: str | Path, patterns: Pattern | Sequence[Pattern], *,
         for slot in order:
             for kk, panel in slot.members:
                 if kk == k:
-                    _draw_panel(g, slot, panel, pats[k], k, colors[k], base=(k == 0 or
+                    _draw_panel(g, slot, panel, pats[k], colors[k], base=(k == 0 or
                                 all(m != 0 for m, _ in slot.members) and k == slot.members[0][0]))
     ET.indent(root)
     text = '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"

@@ -247,7 +247,7 @@ def _check_edges(panel: Panel, where: str, rep: ValidationReport, geometry_ok: b
             rep.errors.append(f"{ew}: non-finite length_cm")
         if not geometry_ok:
             continue
-        o = panel.outline_cm
+        o = np.asarray(panel.outline_cm, dtype=float)
         if e.kind == "line" and math.dist(e.p0, e.p1) <= SAME_POINT_CM:
             rep.errors.append(f"{ew}: degenerate edge: a line of zero length")
         off = max(math.dist(e.p0, o[e.start]), math.dist(e.p1, o[e.end]))
@@ -313,7 +313,8 @@ def _check_stitches(pattern: Pattern, src: str, rep: ValidationReport, tol_cm: f
             if side.panel in good:
                 idx = range_indices(side.range, n)
                 ranges[tag] = set(idx.tolist())
-                lengths[tag] = float(np.sum(np.linalg.norm(np.diff(panel.outline_cm[idx], axis=0), axis=1)))
+                pts = np.asarray(panel.outline_cm, dtype=float)[idx]
+                lengths[tag] = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
         if len(ranges) == 2 and s.a.panel == s.b.panel and len(ranges["a"] & ranges["b"]) > 1:
             rep.errors.append(f"{sw}: sides a {list(s.a.range)} and b {list(s.b.range)} of panel "
                               f"{s.a.panel!r} overlap ({len(ranges['a'] & ranges['b'])} shared vertices)")
@@ -330,8 +331,10 @@ def _check_stitches(pattern: Pattern, src: str, rep: ValidationReport, tol_cm: f
 def _check_units(pattern: Pattern, src: str, good: dict[str, Panel], rep: ValidationReport) -> None:
     if not good:
         return
-    ext = {name: float((p.outline_cm.max(axis=0) - p.outline_cm.min(axis=0)).max())
-           for name, p in good.items()}
+    ext = {}
+    for name, p in good.items():
+        o = np.asarray(p.outline_cm, dtype=float)
+        ext[name] = float((o.max(axis=0) - o.min(axis=0)).max())
     name = max(ext, key=ext.get)
     big = ext[name]
     if big > MM_EXTENT_CM:

@@ -246,8 +246,10 @@ def write_svg(path: str | Path, patterns: Pattern | Sequence[Pattern], *,
         for slot in order:
             for kk, panel in slot.members:
                 if kk == k:
-                    _draw_panel(g, slot, panel, pats[k], colors[k], base=(k == 0 or
-                                all(m != 0 for m, _ in slot.members) and k == slot.members[0][0]))
+                    # names and stitch numbers once per panel: from the base, or from the
+                    # first pattern that has the panel when the base has none of that name
+                    labelled = k == slot.members[0][0]
+                    _draw_panel(g, slot, panel, pats[k], colors[k], base=labelled)
     ET.indent(root)
     text = '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
     return atomic_write_text(path, text)

@@ -5,7 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..errors import SeamfitError
+from ..errors import BodyError, SeamfitError
 
 BODY_SUFFIXES = (".obj", ".ply")
 
@@ -110,8 +110,13 @@ def _run_body(args) -> int:
         from ..body import load_body, validate_body
     except ImportError as exc:
         raise SeamfitError(f"{args.file}: cannot check bodies, seamfit.body is not available ({exc})") from exc
-    report = validate_body(load_body(args.file))
-    errors = list(getattr(report, "errors", []) or [])
+    body = load_body(args.file)                     # unreadable: exit 2 via the caller
+    try:
+        report = validate_body(body)
+    except BodyError as exc:                        # a body that loads but fails its checks
+        report, errors = None, [str(exc)]
+    else:
+        errors = list(getattr(report, "errors", []) or [])
     warnings = list(getattr(report, "warnings", []) or [])
     if not args.quiet:
         print(f"{args.file}: body" + (f"\n  {report}" if report is not None and not errors else ""))

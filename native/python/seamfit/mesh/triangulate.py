@@ -22,7 +22,7 @@ import gmsh
 ALGORITHMS = {"meshadapt": 1, "delaunay": 5, "frontal-delaunay": 6}
 DEFAULT_ALGORITHM = "frontal-delaunay"
 # Laplacian smoothing passes on interior nodes after meshing (gmsh Mesh.Smoothing).
-DEFAULT_SMOOTHING = 4
+DEFAULT_SMOOTHING = 2
 
 # Boundary vertices next to a segment shorter than SHORT_SEGMENT * h get a local size field
 # that grows back to h with this slope (size change per unit distance).

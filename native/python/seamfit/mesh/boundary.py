@@ -22,6 +22,11 @@ A stitch joins side ``a`` and side ``b``. Both sides get the same vertex count:
 Stretches of outline in no stitch are cut between breakpoints into ``max(1, round(L / h))``
 equal arcs. Stitch ranges on one panel may share end points (consecutive seams, dart tips) but no
 outline segment may be sewn twice.
+
+Near a gap between breakpoints much shorter than h the spacing is graded (``_SizeField``): it
+shrinks to the gap and grows back to h at SIZE_GRADIENT, and pieces are cut by equidistributing
+length / spacing, so no short segment sits next to a long one. Without short gaps this is the
+uniform cutting above. See docs/meshing.md.
 """
 from __future__ import annotations
 
@@ -40,7 +45,7 @@ SAME_POINT_CM = 1e-7
 # grows by SIZE_GRADIENT cm per cm of arc away from such a gap (about 20 % per segment).
 SHORT_GAP = 0.8
 SIZE_GRADIENT = 0.2
-MAX_GRADING_PASSES = 6
+MAX_GRADING_PASSES = 10
 
 
 @dataclass

@@ -17,8 +17,10 @@ from seamfit.pattern import load_pattern
 from seamfit.pattern.model import Pattern, Stitch, StitchSide, range_indices
 
 SAMPLES = Path(__file__).resolve().parents[1] / "sample_files" / "patterns"
-FILES = sorted(SAMPLES.glob("*/*/pattern.json"))
-IDS = [f"{f.parents[1].name}/{f.parent.name}" for f in FILES]
+# sewpat-1 files and GarmentCode's own specifications (read through load_pattern)
+FILES = sorted(SAMPLES.glob("*/*/pattern.json")) + sorted(SAMPLES.glob("*/*/native/*_specification.json"))
+IDS = [f"{f.parents[1].name}/{f.parent.name}" if f.name == "pattern.json" else f"{f.parents[2].name}/gc-spec"
+       for f in FILES]
 H = 1.5
 
 _cache: dict = {}

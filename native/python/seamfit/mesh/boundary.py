@@ -30,7 +30,7 @@ uniform cutting above. See docs/meshing.md.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -76,7 +76,8 @@ class StitchSamples:
     b: np.ndarray                   # (k,) the vertices of panel b sewn to them
     frac_a: np.ndarray              # (k,) arc fraction along side a (0 at its range start)
     frac_b: np.ndarray              # (k,) arc fraction along side b, in b's own forward direction
-    knots: np.ndarray               # (j, 2) matched breakpoints (frac along a, frac along b read in a's direction)
+    # (j, 2) breakpoints, matched or copied: fraction along a, fraction along b in a's direction
+    knots: np.ndarray
 
 
 @dataclass
@@ -85,7 +86,6 @@ class PatternBoundary:
     stitches: list[StitchSamples]
     edge_length_cm: float
     merge_tolerance_cm: float
-    notes: list[str] = field(default_factory=list)
 
 
 def _src(pattern: Pattern) -> str:

@@ -62,11 +62,14 @@ def vertex_deformation(base_v, target_v, faces) -> np.ndarray:
     ft = np.zeros((len(faces), 3, 3))
     ft[ok] = et[ok] @ np.linalg.inv(eb[ok])
     w = np.where(ok, area, 0.0)
-    m = np.zeros((len(base_v), 3, 3))
-    wsum = np.zeros(len(base_v))
-    for k in range(3):
-        np.add.at(m, faces[:, k], w[:, None, None] * ft)
-        np.add.at(wsum, faces[:, k], w)
+    # Vertex-by-triangle incidence weighted by area: one sparse product averages F_t.
+    import scipy.sparse as sp
+
+    nf = len(faces)
+    inc = sp.csr_matrix((np.repeat(w, 3), (faces.ravel(), np.repeat(np.arange(nf), 3))),
+                        shape=(len(base_v), nf))
+    wsum = np.asarray(inc.sum(axis=1)).ravel()
+    m = (inc @ ft.reshape(nf, 9)).reshape(-1, 3, 3)
     lonely = wsum == 0
     m[~lonely] /= wsum[~lonely, None, None]
     m[lonely] = np.eye(3)

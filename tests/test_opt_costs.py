@@ -283,6 +283,14 @@ def test_smoothness_measures_bending_angle_and_side():
     assert cs.evaluate(x_opp, p)[0] == pytest.approx(opp, rel=1e-10)
 
 
+def test_sliver_hinges_carry_no_smoothness():
+    m, xb, p = one_hinge(0.5)
+    assert len(CostSet(m, xb, Strengths(smo=1.0)).hinges) == 1
+    m.uv_cm = m.uv_cm.copy()
+    m.uv_cm[3] = [6.0, -1e-6]          # opposite vertex almost on the hinge edge
+    assert len(CostSet(m, xb, Strengths(smo=1.0)).hinges) == 0
+
+
 def test_zero_strength_terms_are_never_evaluated(mesh, param, garment):
     # No SDF and no transferred garment: those terms must not be touched.
     cs = CostSet(mesh, garment["xbar"], Strengths(str=1.0, smo=0.1))

@@ -1,5 +1,6 @@
 #include "opt/cost_set.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "opt/costs/distance.hpp"
@@ -23,6 +24,10 @@ CostSet::CostSet(int n_vertices, const std::vector<Tri>& tris, const Vec2* pbar,
     rbar_[e] = norm(xbar[i] - xbar[j]) / lp;
   }
   hinges_ = interior_hinges(tris);
+  // Sliver hinges carry no smoothness cost (as they carry no bending in the simulator).
+  hinges_.erase(std::remove_if(hinges_.begin(), hinges_.end(),
+                               [&](const Hinge& h) { return !hinge_well_shaped(h, pbar); }),
+                hinges_.end());
   hinge_w_.resize(hinges_.size());
   cbar_.resize(hinges_.size());
   sbar_.resize(hinges_.size());

@@ -53,6 +53,17 @@ static double cot_at(Vec2 apex, Vec2 a, Vec2 b) {
   return dot(u, v) / std::fabs(c);
 }
 
+static double tri_shape(Vec2 a, Vec2 b, Vec2 c) {
+  const Vec2 u = b - a, v = c - a;
+  const double lmax = std::max(norm2(u), std::max(norm2(v), norm2(c - b)));
+  return lmax > 0 ? std::fabs(u.x * v.y - u.y * v.x) / lmax : 0.0;
+}
+
+bool hinge_well_shaped(const Hinge& h, const Vec2* rest) {
+  return tri_shape(rest[h[0]], rest[h[1]], rest[h[2]]) >= kHingeMinShape &&
+         tri_shape(rest[h[1]], rest[h[0]], rest[h[3]]) >= kHingeMinShape;
+}
+
 std::array<double, 4> hinge_kernel(const Hinge& h, const Vec2* rest) {
   const Vec2 pi = rest[h[0]], pj = rest[h[1]], pk = rest[h[2]], pl = rest[h[3]];
   const double ci1 = cot_at(pi, pj, pk), cj1 = cot_at(pj, pi, pk);

@@ -22,6 +22,12 @@ std::vector<Edge> unique_edges(const std::vector<Tri>& tris);
 // std::invalid_argument when two triangles sharing an edge disagree in orientation.
 std::vector<Hinge> interior_hinges(const std::vector<Tri>& tris);
 
+// Sliver guard shared with the simulator's bending stencil: a triangle whose doubled
+// area is below this fraction of its squared longest edge has unbounded cotangents.
+constexpr double kHingeMinShape = 1e-6;
+// True when both triangles of the hinge are well shaped in the rest positions.
+bool hinge_well_shaped(const Hinge& h, const Vec2* rest);
+
 // Kernel weights (w_i, w_j, w_k, w_l) of a hinge from flat rest positions (the base
 // pattern), scaled by 1/|e|:
 //   w_k = cot(a_i1) + cot(a_j1),  w_l = cot(a_i2) + cot(a_j2),

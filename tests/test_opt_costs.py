@@ -180,7 +180,7 @@ def make_costs(mesh, garment, **strengths):
 
 
 def check_term(mesh, param, garment, name, delta, reference, eps=1e-6, rtol=2e-6):
-    rng = np.random.default_rng(hash(name) % 1000)
+    rng = np.random.default_rng(sum(map(ord, name)))   # deterministic per term
     cs = make_costs(mesh, garment, **{name: delta})
     x = garment["x"]
     p = param.pbar * 1.02 + rng.normal(0, 1e-3, param.pbar.shape)
@@ -200,7 +200,7 @@ def test_distance_cost(mesh, param, garment):
     ref = lambda x, p: 0.5 * 3.0 * np.sum((sample_sdf(garment["sdf"], x)[0] - phibar) ** 2)
     # The trilinear interpolant is only C0 across grid cells: a small step keeps the
     # central differences inside the cells.
-    _, _, gp = check_term(mesh, param, garment, "dis", 3.0, ref, eps=1e-8, rtol=1e-6)
+    _, _, gp = check_term(mesh, param, garment, "dis", 3.0, ref, eps=1e-8, rtol=1e-5)
     assert np.all(gp == 0)
     # The analytic sphere: grid values agree with the exact distance (trilinear error only).
     x = garment["x"]

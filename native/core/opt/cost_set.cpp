@@ -56,6 +56,10 @@ void CostSet::set_positional(const Vec3* xtilde, const double* u) {
   has_pos_ = true;
 }
 
+// Below this many elements a loop runs on one thread: spawning a team costs more than it
+// saves, and far more when the cores are shared with other processes.
+constexpr int kParallelMin = 20000;
+
 static double serial_sum(const std::vector<double>& v, size_t n) {
   double s = 0;
   for (size_t i = 0; i < n; ++i) s += v[i];
@@ -74,7 +78,7 @@ double CostSet::evaluate(const Vec3* x, const Vec2* p, Vec3* gx, Vec2* gp,
     ++evals_[kDistance];
     val_.resize(n);
     const double k = strengths_.dis;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
     for (int i = 0; i < n; ++i) {
       Vec3 g;
       val_[i] = distance_cost(sdf_, x[i], phibar_[i], k, &g);
@@ -88,7 +92,7 @@ double CostSet::evaluate(const Vec3* x, const Vec2* p, Vec3* gx, Vec2* gp,
     ++evals_[kPositional];
     val_.resize(n);
     const double k = strengths_.pos;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
     for (int i = 0; i < n; ++i) {
       Vec3 g;
       val_[i] = positional_cost(x[i], xtilde_[i], k * u_[i], &g);
@@ -104,13 +108,13 @@ double CostSet::evaluate(const Vec3* x, const Vec2* p, Vec3* gx, Vec2* gp,
     slot_x_.resize(2 * size_t(ne));
     slot_p_.resize(2 * size_t(ne));
     const double k = strengths_.str;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (ne >= kParallelMin)
     for (int e = 0; e < ne; ++e) {
       const int i = edges_[e][0], j = edges_[e][1];
       val_[e] = stretching_cost(x[i], x[j], p[i], p[j], rbar_[e], k, &slot_x_[2 * e], &slot_x_[2 * e + 1],
                                 &slot_p_[2 * e], &slot_p_[2 * e + 1]);
     }
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
     for (int v = 0; v < n; ++v)
       for (int s = edge_gather_.offsets[v]; s < edge_gather_.offsets[v + 1]; ++s) {
         gx[v] += slot_x_[edge_gather_.slots[s]];
@@ -125,13 +129,13 @@ double CostSet::evaluate(const Vec3* x, const Vec2* p, Vec3* gx, Vec2* gp,
     val_.resize(nh);
     slot_x_.resize(4 * size_t(nh));
     const double k = strengths_.smo;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (nh >= kParallelMin)
     for (int h = 0; h < nh; ++h) {
       const Hinge& hg = hinges_[h];
       const Vec3 xs[4] = {x[hg[0]], x[hg[1]], x[hg[2]], x[hg[3]]};
       val_[h] = smoothness_cost(xs, hinge_w_[h].data(), cbar_[h], sbar_[h], k, &slot_x_[4 * size_t(h)]);
     }
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
     for (int v = 0; v < n; ++v)
       for (int s = hinge_gather_.offsets[v]; s < hinge_gather_.offsets[v + 1]; ++s)
         gx[v] += slot_x_[hinge_gather_.slots[s]];

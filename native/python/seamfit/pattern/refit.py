@@ -184,15 +184,20 @@ def _polish(deg: int, pts: np.ndarray, cp: np.ndarray, t: np.ndarray) -> tuple[n
     return cp, cost0
 
 
-def _fit_bezier(deg: int, pts: np.ndarray, prior: np.ndarray,
-                t_starts: list[np.ndarray]) -> np.ndarray:
+def _fit_bezier(deg: int, pts: np.ndarray, prior: np.ndarray, t_starts: list[np.ndarray],
+                tol_cm: float) -> np.ndarray:
     """Least-squares Bezier through the run's end points. From each start of the parameters
     (chord length; the base curve's own parameters of its samples), a few reparametrization
     (projection) iterations, then a joint Gauss-Newton polish of control points and
     parameters, which converges where plain reparametrization crawls (a control point on an
-    end point, for one). The start giving the smaller residual wins."""
+    end point, for one). The start giving the smaller residual wins.
+
+    A short run (fewer than 2 x free control points interior samples) cannot pin both the
+    control points and their parameters: many curves pass through its samples. There the
+    polish is skipped and, of the fits within ``tol_cm``, the one nearest the prior (the
+    base curve moved with its chord) wins, so short edges keep their drafted shape."""
     m, k = len(pts) - 2, deg - 1
-    best, best_cost = None, np.inf
+    cands = []
     for t in t_starts:
         cp = _solve_ctrl(deg, pts, t, prior)
         if m <= 0:
@@ -200,12 +205,15 @@ def _fit_bezier(deg: int, pts: np.ndarray, prior: np.ndarray,
         for _ in range(_N_REPARAM):
             t = _reparametrize(cp, pts, t)
             cp = _solve_ctrl(deg, pts, t, prior)
-        if m < k:                                   # the run does not determine every control point
-            return cp
-        cp, cost = _polish(deg, pts, cp, t)
-        if cost < best_cost:
-            best, best_cost = cp, cost
-    return best
+        if m < 2 * k:
+            gap = float(np.linalg.norm(_bezier_eval(cp, t) - pts, axis=1).max())
+            cands.append((gap > tol_cm, float(np.sum((cp[1:-1] - prior) ** 2)), gap, cp))
+        else:
+            cp, cost = _polish(deg, pts, cp, t)
+            cands.append((False, 0.0, cost, cp))
+    if m < 2 * k:
+        return min(cands, key=lambda c: (c[0], c[1] if not c[0] else c[2]))[3]
+    return min(cands, key=lambda c: c[2])[3]
 
 
 def _similarity(a0, a1, b0, b1):
@@ -317,7 +325,7 @@ def project_onto_curve(edge: Edge, points: np.ndarray) -> tuple[np.ndarray, np.n
 
 # ----------------------------------------------------------------------------- one edge
 
-def _candidate(base: Edge, kind: str, pts: np.ndarray, base_pts: np.ndarray) -> Edge:
+def _candidate(base: Edge, kind: str, pts: np.ndarray, base_pts: np.ndarray, tol_cm: float) -> Edge:
     e = copy.deepcopy(base)
     e.kind = kind
     e.p0 = (float(pts[0, 0]), float(pts[0, 1]))
@@ -340,7 +348,7 @@ def _candidate(base: Edge, kind: str, pts: np.ndarray, base_pts: np.ndarray) -> 
         _, tb = project_onto_curve(base, base_pts)
         tb[0], tb[-1] = 0.0, 1.0
         starts.append(np.maximum.accumulate(tb))
-    cp = _fit_bezier(deg, pts, prior, starts)
+    cp = _fit_bezier(deg, pts, prior, starts, tol_cm)
     e.ctrl = [(float(u), float(v)) for u, v in cp[1:-1]]
     e.arc = None
     e.extra["_has_ctrl"] = True                     # written with its "ctrl" key
@@ -360,10 +368,10 @@ def _refit_edge(base: Edge, pts: np.ndarray, base_pts: np.ndarray, tol_cm: float
     if float(np.linalg.norm(pts[-1] - pts[0])) <= _SAME_POINT_CM:
         raise PatternError(f"{where}: the moved end vertices {base.start} and {base.end} coincide; "
                            "the edge would have no extent")
-    edge = _candidate(base, kind, pts, base_pts)
+    edge = _candidate(base, kind, pts, base_pts, tol_cm)
     dev = _deviation_cm(edge, pts)
     if kind == "arc" and dev > tol_cm:
-        cubic = _candidate(base, "cubic", pts, base_pts)
+        cubic = _candidate(base, "cubic", pts, base_pts, tol_cm)
         cdev = _deviation_cm(cubic, pts)
         if cdev <= tol_cm:
             notes.append(f"{where}: no arc fits the moved points within {tol_cm * 10:.2f} mm "

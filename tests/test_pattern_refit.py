@@ -287,6 +287,12 @@ def test_bad_input_names_the_panel(patterns):
     col[e.end] = col[e.start]
     with pytest.raises(PatternError, match=rf"panel 'wb_back' edge {e.id} \(line\): the moved end vertices"):
         refit_pattern(base, {"wb_back": col})
+    broken = copy.deepcopy(base)
+    q = next(x for x in broken.panel("skirt_front").edges if x.kind == "quadratic")
+    q.ctrl = []
+    with pytest.raises(PatternError, match=rf"panel 'skirt_front' edge {q.id} \(quadratic\): cannot refit: .*"
+                                           r"needs 1 control point"):
+        refit_pattern(broken, {"skirt_front": broken.panel("skirt_front").outline_cm})
 
 
 

@@ -41,7 +41,8 @@ def _f(x: float) -> str:
 
 
 def summary_table(rows: list[dict]) -> list[str]:
-    out = ["| garment | body | max cm | mean cm | points | worst (panel: landmark) | perimeter diff cm | area diff % | order-matched panels |",
+    out = ["| garment | body | max cm | mean cm | points | worst (panel: landmark) | perimeter diff cm "
+           "| area diff % | order-matched panels |",
            "|---|---|---:|---:|---:|---|---|---|---|"]
     for r in rows:
         rep = r["report"]

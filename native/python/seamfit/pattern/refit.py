@@ -29,7 +29,7 @@ from scipy.optimize import least_squares
 
 from ..errors import PatternError
 from . import curves
-from .model import Edge, Panel, Pattern, StitchSide, range_indices
+from .model import EDGE_KINDS, Edge, Panel, Pattern, StitchSide, range_indices
 from .validate import find_self_intersections
 
 # Max distance (cm) from a moved outline point to its refitted curve: 0.5 mm, finer than
@@ -365,6 +365,15 @@ def _deviation_cm(edge: Edge, pts: np.ndarray) -> float:
 def _refit_edge(base: Edge, pts: np.ndarray, base_pts: np.ndarray, tol_cm: float, where: str,
                 notes: list[str]) -> tuple[Edge, float]:
     kind = base.kind
+    try:                                            # the base curve must be well formed
+        if kind == "arc":
+            curves.arc_params(base)
+        elif kind in ("line", "quadratic", "cubic"):
+            curves.control_points(base)
+        else:
+            raise PatternError(f"unknown curve kind {kind!r} (expected one of {', '.join(EDGE_KINDS)})")
+    except PatternError as exc:
+        raise PatternError(f"{where}: cannot refit: {exc}") from None
     if float(np.linalg.norm(pts[-1] - pts[0])) <= _SAME_POINT_CM:
         raise PatternError(f"{where}: the moved end vertices {base.start} and {base.end} coincide; "
                            "the edge would have no extent")

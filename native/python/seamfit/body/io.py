@@ -113,11 +113,48 @@ def save_body(body: Body, path, binary: bool = True) -> Path:
 _SLASH_TAIL = re.compile(r"/\S*")
 
 
+_V_LINE = re.compile(r"^[ \t]*v[ \t]+([^\n]*)", re.M)
+_F_LINE = re.compile(r"^[ \t]*f[ \t]+([^\n]*)", re.M)
+
+
 def _read_obj(data: bytes, where: str) -> tuple[np.ndarray, np.ndarray]:
     text = data.decode("utf-8", errors="replace")
     if "\\\n" in text or "\\\r\n" in text:
         # Continuation lines: join them (line numbers after a join shift by one).
         text = re.sub(r"\\\r?\n", " ", text)
+    fast = _read_obj_fast(text)
+    if fast is not None:
+        return fast
+    return _read_obj_lines(text, where)
+
+
+def _read_obj_fast(text: str):
+    """The common case (3 coordinates per vertex, triangles, valid indices) in a
+    few vectorised steps; None sends anything else to the line-by-line reader,
+    which also names the line at fault."""
+    vrows = _V_LINE.findall(text)
+    frows = _F_LINE.findall(text)
+    try:
+        coords = np.array(" ".join(vrows).split(), dtype=np.float64)
+        flat = np.array(_SLASH_TAIL.sub("", " ".join(frows)).split(), dtype=np.int64)
+    except ValueError:
+        return None
+    nv, nf = len(vrows), len(frows)
+    if coords.size != 3 * nv or flat.size != 3 * nf or nf == 0:
+        return None
+    if flat.min() < 0:  # relative indices count back from the vertices defined so far
+        vpos = np.array([m.start() for m in _V_LINE.finditer(text)])
+        fpos = np.array([m.start() for m in _F_LINE.finditer(text)])
+        before = np.repeat(np.searchsorted(vpos, fpos), 3)
+        idx = np.where(flat > 0, flat - 1, before + flat)
+    else:
+        idx = flat - 1
+    if np.any(flat == 0) or idx.min() < 0 or idx.max() >= nv:
+        return None
+    return coords.reshape(nv, 3), idx.reshape(nf, 3).astype(np.int32)
+
+
+def _read_obj_lines(text: str, where: str) -> tuple[np.ndarray, np.ndarray]:
     v_rows: list[list[str]] = []
     v_lines: list[int] = []
     f_rows: list[list[str]] = []

@@ -31,9 +31,7 @@ body::SdfBuildParams make_params(double spacing, double padding, const py::objec
   if (!bounds.is_none()) {
     F64 b = py::cast<F64>(bounds);
     if (b.size() != 6) throw std::invalid_argument("bounds must be 6 numbers: (xmin, ymin, zmin, xmax, ymax, zmax)");
-    auto r = b.unchecked();
     const double* d = b.data();
-    (void)r;
     p.has_bounds = true;
     for (int a = 0; a < 3; ++a) { p.bounds_lo[a] = d[a]; p.bounds_hi[a] = d[3 + a]; }
   }

@@ -375,7 +375,7 @@ void Simulator::sample_phi(const double* x, double* phi, bool barrier_field) con
 }
 
 void Simulator::evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* diag, SdfSample* samples,
-                         bool samples_known) {
+                         bool samples_known, bool reuse_spring_diag) {
   const int E = n_springs();
   const double Y = params_.stretch_Y, Ys = params_.sewing_Y, kb = params_.bend_kb;
   const Vec3 gv = params_.gravity;
@@ -391,7 +391,7 @@ void Simulator::evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* d
       const double L = rest_L_[e], r = shirring_[e];
       e_stretch += patch_spring_energy(xi, xj, L, r, Y);
       spring_g_[e] = patch_spring_grad(xi, xj, L, r, Y);
-      if (diag) spring_H_[e] = patch_spring_hess(xi, xj, L, r, Y, true);
+      if (diag && !reuse_spring_diag) spring_H_[e] = patch_spring_hess(xi, xj, L, r, Y, true);
     }
   }
   double e_sew = 0, e_bend = 0, e_grav = 0, e_stick = 0, e_bar = 0;

@@ -158,9 +158,10 @@ class Simulator {
   void update_barrier_weights();
   // Fused pass: energy terms, force, and (optionally) PSD diagonal blocks.
   // samples: per-vertex SDF samples, written here, or read when samples_known
-  // (the caller sampled x already).
+  // (the caller sampled x already). reuse_spring_diag: the springs' share of
+  // the diagonal blocks is taken from the last call (a preconditioner may lag).
   void evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* diag, SdfSample* samples,
-                bool samples_known = false);
+                bool samples_known = false, bool reuse_spring_diag = false);
   SolveReport solve_chebyshev(double* x, const SolveSettings& s, const ProgressFn& progress,
                               const std::atomic<bool>* cancel);
   SolveReport solve_newton(double* x, const SolveSettings& s, const ProgressFn& progress,

@@ -38,6 +38,12 @@ constexpr double kProjectFloor = 1e-9;
 // A vertex step may always be this long (m), thinner than any body part, so a
 // bounded step cannot jump through the body between two outside states.
 constexpr double kFreeStep = 0.005;
+// Bound on |grad phi| of the barrier's field: a B-spline or trilinear reading of
+// a distance grid has each derivative a mean of grid differences (<= 1 each),
+// so |grad phi| <= sqrt(3); 1.8 leaves room for round-off in the grid.
+constexpr double kLipschitz = 1.8;
+// Iterations between refreshes of the springs' share of the Jacobi blocks.
+constexpr int kPrecondRefresh = 4;
 
 inline double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
@@ -71,8 +77,13 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   std::vector<SdfSample> S(bar ? n_ : 0);
   EnergyTerms et;
   // known: S already holds the samples of xx (the update loop sampled them).
+  // The springs' part of the preconditioner is refreshed every few iterations
+  // (it changes slowly; computing it is a third of an iteration's cost).
+  int since_refresh = 0;
   auto eval = [&](std::vector<double>& xx, bool known) -> double {
-    evaluate(xx.data(), f.data(), &et, D.data(), bar ? S.data() : nullptr, known && bar);
+    const bool reuse = known && since_refresh < kPrecondRefresh - 1;
+    since_refresh = reuse ? since_refresh + 1 : 0;
+    evaluate(xx.data(), f.data(), &et, D.data(), bar ? S.data() : nullptr, known && bar, reuse);
     return et.total();
   };
 
@@ -87,6 +98,8 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   double omega = 1.0;
   std::vector<double> upd_norm;  // |dx| during warm-up, for the rho estimate
   const double beta = 0.5;       // a step may close at most this fraction of the gap
+  // Beyond this phi (a margin past the barrier's reach) vertices skip the SDF.
+  const double far = params_.barrier_distance + 0.002;
 
   int it = 0;
   for (;; ++it) {
@@ -187,6 +200,19 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
         const double len = norm(dv), cap = std::max(0.9 * s.phi, kFreeStep);
         if (len > cap) dv = (cap / len) * dv;
         xn = xo + dv;
+        // Far from the body the barrier is exactly zero: carry a lower bound
+        // of phi (the field is Lipschitz) instead of sampling the grid.
+        const double bound = s.phi - kLipschitz * norm(dv);
+        if (bound > far) {
+          S[v] = SdfSample{bound, make_vec3(0, 0, 0)};
+          xp[3 * v] = xo.x;
+          xp[3 * v + 1] = xo.y;
+          xp[3 * v + 2] = xo.z;
+          xc[3 * v] = xn.x;
+          xc[3 * v + 1] = xn.y;
+          xc[3 * v + 2] = xn.z;
+          continue;
+        }
         SdfSample sn = sdf_at(xn);
         // Sliding along the body: where the body curves away from the tangent
         // plane (or creases), a step can close more than half the gap although

@@ -110,11 +110,18 @@ def test_progress_callback_and_cancel(body):
 
 def test_budget_exhaustion_is_reported(body):
     mesh = sewn_tube(radius_m=0.12, height_cm=30, nu=10, nv=6, gap_m=0.05, z0=0.2)
-    sim = Simulator(mesh, body, Fabric(), SimSettings(tolerance=1e-12, max_iterations=50, sew_first=False))
+    sim = Simulator(mesh, body, Fabric(), SimSettings(tolerance=1e-12, max_iterations=50, sew_first=False,
+                                                      polish=False))
     res = sim.drape()
     assert not res.converged and not res.cancelled
     assert "not converged" in res.message and "iteration budget" in res.message
     assert res.iterations == 50
+    # With the Newton polish, its own budget follows.
+    sim.settings.polish = True
+    sim.settings.polish_iterations = 7
+    res = sim.drape()
+    assert [s["stage"] for s in res.stages] == ["settle", "polish"]
+    assert res.stages[1]["iterations"] == 7 and res.iterations == 57 and not res.converged
     assert np.all(np.isfinite(res.x)) and np.isfinite(res.residual)
     sim2 = Simulator(mesh, body, Fabric(), SimSettings(tolerance=1e-12, max_seconds=0.05, max_iterations=10**9,
                                                        sew_first=False))

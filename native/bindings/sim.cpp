@@ -67,6 +67,7 @@ py::dict report_dict(const SolveReport& r) {
   d["restarts"] = r.restarts;
   d["projections"] = r.projections;
   d["rejected_steps"] = r.rejected_steps;
+  d["momentum_restarts"] = r.momentum_restarts;
   d["final_rho"] = r.final_rho;
   d["final_alpha"] = r.final_alpha;
   d["message"] = r.message;
@@ -131,7 +132,9 @@ void bind_sim(py::module_& m) {
       .def_readwrite("check_every", &SolveSettings::check_every)
       .def_readwrite("progress_every", &SolveSettings::progress_every)
       .def_readwrite("history_every", &SolveSettings::history_every)
-      .def_readwrite("newton_exact_first", &SolveSettings::newton_exact_first);
+      .def_readwrite("newton_exact_first", &SolveSettings::newton_exact_first)
+      .def_readwrite("momentum_restart", &SolveSettings::momentum_restart,
+                     "Chebyshev: drop momentum against the force: 0 never, 1 globally, 2 per vertex");
 
   py::class_<Simulator>(m, "Simulator", "Quasistatic garment simulator (Wang 2018, section 4) on the CPU.")
       .def(py::init([](DArr p, IArr tris, IArr sew, const SimParams& params) {

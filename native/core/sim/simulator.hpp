@@ -67,6 +67,9 @@ struct SolveSettings {
   int progress_every = 50;   // callback interval (iterations)
   int history_every = 10;    // residual history interval (iterations)
   bool newton_exact_first = true;  // Newton: try the exact Hessian before the PSD one
+  // Chebyshev: drop momentum that runs against the force: 0 never (energy
+  // checks only), 1 whole garment (restart the sequence), 2 per vertex.
+  int momentum_restart = 0;
 };
 
 struct SolveReport {
@@ -79,6 +82,7 @@ struct SolveReport {
   int restarts = 0;          // Chebyshev restarts after an energy rise
   int projections = 0;       // vertices projected out of the body
   long rejected_steps = 0;   // vertex steps dropped by the barrier-safe step
+  long momentum_restarts = 0;  // gradient restarts of the Chebyshev sequence
   double final_rho = 0, final_alpha = 0;
   std::string message;
   std::vector<double> hist_iter, hist_seconds, hist_residual;
@@ -166,6 +170,11 @@ class Simulator {
                               const std::atomic<bool>* cancel);
   SolveReport solve_newton(double* x, const SolveSettings& s, const ProgressFn& progress,
                            const std::atomic<bool>* cancel);
+  // Barrier-safe displacement dv of one vertex from xo (with sample s there);
+  // dv is clipped in place, sn receives the sample at the result. far > 0:
+  // beyond that distance return kStepFar with a Lipschitz bound, unsampled.
+  enum { kStepTaken = 0, kStepRejected = 1, kStepFar = 2 };
+  int safe_vertex_step(const SdfSample& s, Vec3 xo, Vec3& dv, double far, SdfSample& sn) const;
   SdfSample sdf_at(Vec3 p) const;   // the barrier's field: value and gradient
   Sym3 sdf_hess_at(Vec3 p) const;    // and its Hessian
 

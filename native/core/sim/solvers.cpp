@@ -63,6 +63,47 @@ inline double energy_slack(const EnergyTerms& t) {
 
 }  // namespace
 
+int Simulator::safe_vertex_step(const SdfSample& s, Vec3 xo, Vec3& dv, double far, SdfSample& sn) const {
+  // Close at most half the gap along the SDF normal.
+  const double gn = norm(s.grad);
+  if (gn > 1e-12 && s.phi > 0) {
+    const Vec3 nrm = (1.0 / gn) * s.grad;
+    const double dn = dot(dv, nrm), lim = -0.5 * s.phi;
+    if (dn < lim) dv -= (dn - lim) * nrm;
+  }
+  // Move no further than the gap (so no jump through the body) or kFreeStep.
+  const double len = norm(dv), cap = std::max(0.9 * s.phi, kFreeStep);
+  if (len > cap) dv = (cap / len) * dv;
+  // Far from the body: a Lipschitz lower bound of phi instead of a sample.
+  const double bound = s.phi - kLipschitz * norm(dv);
+  if (far > 0 && bound > far) {
+    sn = SdfSample{bound, make_vec3(0, 0, 0)};
+    return kStepFar;
+  }
+  Vec3 xn = xo + dv;
+  sn = sdf_at(xn);
+  // Sliding along the body: where the body curves away from the tangent plane
+  // (or creases) a step can close more than half the gap although its normal
+  // part does not; it is pushed back out along the field to its linear
+  // prediction phi + grad.dv (at least half the old gap), a few Newton steps
+  // on phi. Failing that the vertex stays. Steps that keep half the gap are
+  // left alone (pure descent).
+  const double want = std::max(s.phi + dot(s.grad, dv), 0.5 * s.phi);
+  for (int h = 0; h < 3 && sn.phi < 0.5 * s.phi && sn.phi < want; ++h) {
+    const double g2 = norm2(sn.grad);
+    if (!(g2 > 1e-12)) break;
+    xn += ((want - sn.phi) / g2) * sn.grad;
+    sn = sdf_at(xn);
+  }
+  if (sn.phi < 0.25 * s.phi || !(sn.phi > kProjectFloor) || norm(xn - xo) > 2.0 * std::max(norm(dv), 1e-300)) {
+    dv = make_vec3(0, 0, 0);
+    sn = s;
+    return kStepRejected;
+  }
+  dv = xn - xo;
+  return kStepTaken;
+}
+
 SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const ProgressFn& progress,
                                        const std::atomic<bool>* cancel) {
   const auto t0 = Clock::now();
@@ -88,16 +129,18 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   };
 
   double E = eval(xc, false), Eck = E;
-  double alpha = std::min(std::max(st.alpha, 1e-3), 1.0);
+  const double alpha0 = std::min(std::max(st.alpha, 1e-3), 1.0);
+  double alpha = alpha0;
   const bool auto_rho = !(st.rho > 0);
   double rho = auto_rho ? 0.0 : std::min(st.rho, 0.99999);
   const int warmup = std::max(st.warmup, 2);
   const int check = std::max(st.check_every, 1);
   int k = 0;            // iterations since the last (re)start
   int rises = 0;        // consecutive energy rises
+  int good_checks = 0;  // consecutive checkpoints with falling energy
   double omega = 1.0;
+  bool fresh_seq = false;        // the Chebyshev sequence restarts at the next step
   std::vector<double> upd_norm;  // |dx| during warm-up, for the rho estimate
-  const double beta = 0.5;       // a step may close at most this fraction of the gap
   // Beyond this phi (a margin past the barrier's reach) vertices skip the SDF.
   const double far = params_.barrier_distance + 0.002;
 
@@ -159,10 +202,28 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
       d[3 * v + 2] = dv.z;
       dn2 += norm2(dv);
     }
+    // Gradient restart (O'Donoghue and Candes 2015): momentum that runs
+    // against the force is dropped, globally (mode 1) or per vertex (mode 2).
+    bool restart_seq = false;
+    if (st.momentum_restart == 1 && k > warmup) {
+      double up = 0;
+#pragma omp parallel for reduction(+ : up) schedule(static) num_threads(threads_)
+      for (int i = 0; i < n3; ++i) up += f[i] * (xc[i] - xp[i]);
+      if (up < 0) {
+        restart_seq = true;
+        ++rep.momentum_restarts;
+      }
+    }
     if (k < warmup) {
       omega = 1.0;
       upd_norm.push_back(std::sqrt(dn2));
-    } else if (k == warmup) {
+    } else if (restart_seq) {
+      omega = 1.0;
+      std::copy(xc.begin(), xc.end(), xp.begin());
+      fresh_seq = true;
+    } else if (k == warmup || fresh_seq) {
+      fresh_seq = false;
+      if (k == warmup) {
       if (auto_rho) {
         // Power-iteration estimate from the second half of the warm-up.
         const int m = warmup / 2;
@@ -170,6 +231,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
         double est = (a > 0 && b > 0) ? std::pow(b / a, 1.0 / m) : 0.9;
         if (!std::isfinite(est)) est = 0.9;
         rho = std::max(rho, std::min(std::max(est, 0.5), 0.9995));
+      }
       }
       omega = 2.0 / (2.0 - rho * rho);
     } else {
@@ -184,27 +246,21 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
 #pragma omp parallel for reduction(+ : rejected) schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
       const Vec3 xo = {xc[3 * v], xc[3 * v + 1], xc[3 * v + 2]};
+      Vec3 mom = {xc[3 * v] - xp[3 * v], xc[3 * v + 1] - xp[3 * v + 1], xc[3 * v + 2] - xp[3 * v + 2]};
+      if (st.momentum_restart == 2 && f[3 * v] * mom.x + f[3 * v + 1] * mom.y + f[3 * v + 2] * mom.z < 0)
+        mom = make_vec3(0, 0, 0);
       Vec3 dv;
-      dv.x = omega * d[3 * v] + (omega - 1.0) * (xc[3 * v] - xp[3 * v]);
-      dv.y = omega * d[3 * v + 1] + (omega - 1.0) * (xc[3 * v + 1] - xp[3 * v + 1]);
-      dv.z = omega * d[3 * v + 2] + (omega - 1.0) * (xc[3 * v + 2] - xp[3 * v + 2]);
+      dv.x = omega * d[3 * v] + (omega - 1.0) * mom.x;
+      dv.y = omega * d[3 * v + 1] + (omega - 1.0) * mom.y;
+      dv.z = omega * d[3 * v + 2] + (omega - 1.0) * mom.z;
       Vec3 xn = xo + dv;
       if (bar) {
-        const SdfSample& s = S[v];
-        const double gn = norm(s.grad);
-        if (gn > 1e-12 && s.phi > 0) {
-          const Vec3 nrm = (1.0 / gn) * s.grad;
-          const double dn = dot(dv, nrm), lim = -beta * s.phi;
-          if (dn < lim) dv -= (dn - lim) * nrm;
-        }
-        const double len = norm(dv), cap = std::max(0.9 * s.phi, kFreeStep);
-        if (len > cap) dv = (cap / len) * dv;
-        xn = xo + dv;
-        // Far from the body the barrier is exactly zero: carry a lower bound
-        // of phi (the field is Lipschitz) instead of sampling the grid.
-        const double bound = s.phi - kLipschitz * norm(dv);
-        if (bound > far) {
-          S[v] = SdfSample{bound, make_vec3(0, 0, 0)};
+        SdfSample sn;
+        const int r = safe_vertex_step(S[v], xo, dv, far, sn);
+        if (r == kStepFar) {
+          // Carry the lower bound; the barrier is exactly zero out there.
+          xn = xo + dv;
+          S[v] = sn;
           xp[3 * v] = xo.x;
           xp[3 * v + 1] = xo.y;
           xp[3 * v + 2] = xo.z;
@@ -213,25 +269,8 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
           xc[3 * v + 2] = xn.z;
           continue;
         }
-        SdfSample sn = sdf_at(xn);
-        // Sliding along the body: where the body curves away from the tangent
-        // plane (or creases), a step can close more than half the gap although
-        // its normal part may not; such a step is pushed back out along the
-        // field to its linear prediction phi + grad.dv (at least half the old
-        // gap), a few Newton steps on phi. Failing that the vertex stays.
-        // Steps that keep half the gap are left alone (pure descent).
-        const double want = std::max(s.phi + dot(s.grad, dv), 0.5 * s.phi);
-        for (int h = 0; h < 3 && sn.phi < 0.5 * s.phi && sn.phi < want; ++h) {
-          const double g2 = norm2(sn.grad);
-          if (!(g2 > 1e-12)) break;
-          xn += ((want - sn.phi) / g2) * sn.grad;
-          sn = sdf_at(xn);
-        }
-        if (sn.phi < 0.25 * s.phi || !(sn.phi > kProjectFloor) || norm(xn - xo) > 2.0 * std::max(len, 1e-300)) {
-          xn = xo;
-          sn = s;
-          ++rejected;
-        }
+        if (r == kStepRejected) ++rejected;
+        xn = xo + dv;
         S[v] = sn;
       }
       const bool stay = bar && xn.x == xo.x && xn.y == xo.y && xn.z == xo.z;
@@ -260,12 +299,18 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
         if (auto_rho) rho = std::max(0.0, 1.0 - 2.0 * (1.0 - rho));
         else rho *= 0.9;
         if (rises >= 3) alpha = std::max(0.5 * alpha, 1e-3);
+        good_checks = 0;
       } else {
         ck = xc;
         Eck = E;
         rises = 0;
-        // Still descending: widen the Chebyshev interval towards 1.
+        // Still descending: widen the Chebyshev interval towards 1, and let a
+        // step length cut by earlier rises grow back.
         if (auto_rho && k > warmup) rho = std::min(1.0 - 0.9 * (1.0 - rho), 0.99995);
+        if (++good_checks >= 16 && alpha < alpha0) {
+          alpha = std::min(1.25 * alpha, alpha0);
+          good_checks = 0;
+        }
       }
     }
   }
@@ -293,6 +338,8 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
   double E = force(x, f.data(), &et);
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
   bool analysed = false;
+  bool exact_ok = true;     // the last exact-Hessian factorization was positive definite
+  int last_exact_try = -1000;
   double shift = 0;  // Levenberg shift, relative to the mean diagonal
   int it = 0;
   for (;; ++it) {
@@ -326,8 +373,14 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
     }
     // Exact Hessian when it is positive definite (quadratic convergence near a
     // strict minimum); otherwise the PSD-projected one with a Levenberg shift.
+    // A failed attempt costs a whole factorization, so after a failure the
+    // exact Hessian is tried again only every few iterations or close to
+    // convergence.
     bool ok = false;
-    if (st.newton_exact_first) {
+    const bool try_exact = st.newton_exact_first &&
+                           (exact_ok || it - last_exact_try >= 8 || res < 20 * st.tolerance);
+    if (try_exact) {
+      last_exact_try = it;
       hessian(x, false);
       if (!analysed) {
         ldlt.analyzePattern(H_);
@@ -335,6 +388,7 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
       }
       ldlt.factorize(H_);
       ok = ldlt.info() == Eigen::Success && (ldlt.vectorD().array() > 0).all();
+      exact_ok = ok;
     }
     if (!ok) {
       hessian(x, true);
@@ -373,23 +427,37 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
     // body, so accepted steps end outside. Against tunnelling through a thin
     // part of the body, no vertex moves further than its distance to the body
     // (the SDF is 1-Lipschitz) or kFreeStep, whichever is larger.
-    double tmax = 1.0;
+    // Per-vertex safeguards on each trial point (as in the Chebyshev loop): a
+    // vertex closes at most half its gap along the SDF normal and moves no
+    // further than its gap or kFreeStep. Without them a step that lowers the
+    // total energy can park a vertex nanometres from the body, where its
+    // barrier force (c/phi) swamps the residual for many iterations.
+    std::vector<SdfSample> S0(bar ? n_ : 0);
     if (bar) {
-      for (int v = 0; v < n_; ++v) {
-        const double len = std::sqrt(dx[3 * v] * dx[3 * v] + dx[3 * v + 1] * dx[3 * v + 1] + dx[3 * v + 2] * dx[3 * v + 2]);
-        if (len <= 0) continue;
-        const double phi = sdf_at(make_vec3(x[3 * v], x[3 * v + 1], x[3 * v + 2])).phi;
-        tmax = std::min(tmax, std::max(0.9 * phi, kFreeStep) / len);
-      }
+#pragma omp parallel for schedule(static) num_threads(threads_)
+      for (int v = 0; v < n_; ++v) S0[v] = sdf_at(make_vec3(x[3 * v], x[3 * v + 1], x[3 * v + 2]));
     }
-    const double slope = -f.dot(dx);  // dE/dt at t = 0 (negative)
-    double t = tmax;
+    auto trial = [&](double t) {
+#pragma omp parallel for schedule(static) num_threads(threads_)
+      for (int v = 0; v < n_; ++v) {
+        Vec3 dv = make_vec3(t * dx[3 * v], t * dx[3 * v + 1], t * dx[3 * v + 2]);
+        if (bar) {
+          SdfSample sn;
+          safe_vertex_step(S0[v], make_vec3(x[3 * v], x[3 * v + 1], x[3 * v + 2]), dv, 0.0, sn);
+        }
+        xt[3 * v] = x[3 * v] + dv.x;
+        xt[3 * v + 1] = x[3 * v + 1] + dv.y;
+        xt[3 * v + 2] = x[3 * v + 2] + dv.z;
+      }
+    };
+    double t = 1.0;
     bool accepted = false;
     EnergyTerms et_t;
     for (int ls = 0; ls < 60; ++ls) {
-      xt = X + t * dx;
+      trial(t);
+      const double gain = f.dot(xt - X);  // first-order energy decrease of the actual move
       const double Et = energy(xt.data(), &et_t);
-      if (std::isfinite(Et) && Et <= E + 1e-4 * t * slope + energy_slack(et_t)) {
+      if (gain > 0 && std::isfinite(Et) && Et <= E - 1e-4 * gain + energy_slack(et_t)) {
         accepted = true;
         break;
       }
@@ -399,6 +467,7 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
       rep.message = "not converged: line search failed at relative residual " + fmt(res);
       break;
     }
+    const double tmax = 1.0;
     X = xt;
     E = force(x, f.data(), &et);
     shift = t >= 0.999 * tmax ? shift * 0.1 : shift;

@@ -43,7 +43,10 @@ def register(subparsers) -> None:
     p.add_argument("--method", choices=("chebyshev", "newton"), default=st.method,
                    help=f"solver (default {st.method})")
     p.add_argument("--max-iterations", metavar="N", type=int, default=None,
-                   help=f"iteration budget per stage (default {st.max_iterations} for chebyshev, 600 for newton)")
+                   help=f"iteration budget per stage (default {st.max_iterations} for chebyshev, "
+                        f"{st.newton_max_iterations} for newton)")
+    p.add_argument("--no-polish", action="store_true",
+                   help="chebyshev: no Newton polish when the settle stage stops above the tolerance")
     p.add_argument("--max-seconds", metavar="S", type=float, default=0.0,
                    help="time budget per stage in seconds (default: none)")
     p.add_argument("--tolerance", metavar="R", type=float, default=st.tolerance,
@@ -108,11 +111,12 @@ def run(args) -> int:
     fabric = Fabric(stretch_stiffness=args.stretch_stiffness, sewing_stiffness=args.sewing_stiffness,
                     bending_stiffness=args.bending_stiffness, density=args.density)
     settings = SimSettings(method=args.method, tolerance=args.tolerance, mu=args.mu,
-                           max_seconds=args.max_seconds)
+                           max_seconds=args.max_seconds, polish=not args.no_polish)
     if args.max_iterations is not None:
-        settings.max_iterations = args.max_iterations
-    elif args.method == "newton":
-        settings.max_iterations = 600
+        if args.method == "newton":
+            settings.newton_max_iterations = args.max_iterations
+        else:
+            settings.max_iterations = args.max_iterations
     x0, dress = initial_positions(mesh, pattern, sdf, mode=args.dress)
     if dress.get("wrapped_panels"):
         say(f"dressing: wrapped {', '.join(dress['wrapped_panels'])} on a cylinder of radius "

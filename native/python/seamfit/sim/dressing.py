@@ -8,6 +8,12 @@ wrapped onto a vertical cylinder around the body: every horizontal line of a
 panel goes, with its length kept, onto a circle, so the wrap is an isometry of
 the flat panel (no initial strain) and the side seams end up at the body's
 sides, between torso and arms, instead of being pulled through them.
+
+Panels drafted as annular sectors (circle skirts: the waist is a circular arc)
+go onto the cone they describe instead: polar coordinates about the arc's
+centre become slant distance and azimuth, the sectors of all such panels
+together close the cone once around the body, and the waist arc lands as a
+horizontal circle at the anchor's (waist) height. Also an isometry.
 """
 from __future__ import annotations
 
@@ -105,6 +111,78 @@ def wrap_on_cylinder(x: np.ndarray, vertices: np.ndarray, axis: tuple[float, flo
     return out
 
 
+def _fit_circle(uv: np.ndarray):
+    """Least-squares circle (Kasa): centre (2,), radius, rms residual."""
+    A = np.c_[uv, np.ones(len(uv))]
+    b = -(uv ** 2).sum(axis=1)
+    sol, *_ = np.linalg.lstsq(A, b, rcond=None)
+    c = -0.5 * sol[:2]
+    r2 = c @ c - sol[2]
+    if not (r2 > 0):
+        return c, math.inf, math.inf
+    r = math.sqrt(r2)
+    return c, r, float(np.sqrt(np.mean((np.linalg.norm(uv - c, axis=1) - r) ** 2)))
+
+
+def _waist_arc(mesh, k: int, anchor: int | None):
+    """The run of panel k's outline through the anchor vertex, between the
+    nearest pattern corners on either side (the waist curve for a hint panel)."""
+    loop = np.asarray(mesh.boundary_loops[k])
+    if anchor is None or anchor not in set(loop.tolist()):
+        return None
+    corner = np.asarray(getattr(mesh, "corner", np.zeros(mesh.n_vertices, bool)))
+    i0 = int(np.flatnonzero(loop == anchor)[0])
+    n = len(loop)
+    run = [loop[i0]]
+    for step in (1, -1):
+        i = i0
+        for _ in range(n - 1):
+            i = (i + step) % n
+            run.append(loop[i]) if step == 1 else run.insert(0, loop[i])
+            if corner[loop[i]]:
+                break
+    return np.array(run)
+
+
+def cone_sector(mesh, k: int, anchor: int | None, min_angle: float = 0.6):
+    """(centre, waist radius, angular extent) when panel k is an annular
+    sector about the centre of its waist arc, else None."""
+    run = _waist_arc(mesh, k, anchor)
+    if run is None or len(run) < 5:
+        return None
+    uv = 0.01 * np.asarray(mesh.uv_cm)[run]
+    c, r, rms = _fit_circle(uv)
+    if not math.isfinite(r) or rms > 0.02 * r:
+        return None
+    ang = np.unwrap(np.arctan2(uv[:, 1] - c[1], uv[:, 0] - c[0]))
+    if ang.max() - ang.min() < min_angle:
+        return None  # a gentle curve: the cylinder is the better fit
+    pts = 0.01 * np.asarray(mesh.uv_cm)[np.asarray(mesh.vertex_panel) == k]
+    a = np.arctan2(pts[:, 1] - c[1], pts[:, 0] - c[0])
+    # angular extent of the whole panel about the centre (smallest covering arc)
+    srt = np.sort(a)
+    gaps = np.diff(np.r_[srt, srt[0] + 2 * np.pi])
+    extent = 2 * np.pi - gaps.max()
+    return c, r, extent
+
+
+def wrap_on_cone(x: np.ndarray, uv_m: np.ndarray, vertices: np.ndarray, centre: np.ndarray, axis, apex_z: float,
+                 sin_beta: float, azimuth_mid: float, theta_mid: float, scale: float, mirror: bool) -> np.ndarray:
+    """Put the pattern points about `centre` on the cone with apex above the
+    axis: slant distance = pattern radius, azimuth = azimuth_mid + scale * (theta - theta_mid)."""
+    out = x.copy()
+    d = uv_m[vertices] - centre
+    r = np.linalg.norm(d, axis=1)
+    th = np.arctan2(d[:, 1], d[:, 0])
+    th = theta_mid + np.angle(np.exp(1j * (th - theta_mid)))
+    az = azimuth_mid + (-1 if mirror else 1) * scale * (th - theta_mid)
+    cos_beta = math.sqrt(max(1.0 - sin_beta ** 2, 0.0))
+    out[vertices, 0] = axis[0] + r * sin_beta * np.sin(az)
+    out[vertices, 1] = axis[1] - r * sin_beta * np.cos(az)
+    out[vertices, 2] = apex_z - r * cos_beta
+    return out
+
+
 def initial_positions(mesh, pattern=None, sdf=None, mode: str = "auto", margin: float = 0.02) -> tuple[np.ndarray, dict]:
     """Start positions for `Simulator.drape`, and a dict describing what was done.
 
@@ -136,7 +214,44 @@ def initial_positions(mesh, pattern=None, sdf=None, mode: str = "auto", margin: 
     plane_y = [float(np.median(x0[vpanel == k, 1])) for k, _, _ in wrap]
     axis = torso_axis(sdf, z_lo, z_hi, fallback_y=float(np.mean(plane_y)))
     radius = body_radius(sdf, axis, z_lo, z_hi) + margin
+    uv_m = 0.01 * np.asarray(mesh.uv_cm, dtype=np.float64)
+    landmark = getattr(mesh, "landmark_vertex", {}) or {}
+    cones = {}
+    for k, name, pl in wrap:
+        anchor = landmark.get((name, (pl.extra or {}).get("anchor_landmark")))
+        sec = cone_sector(mesh, k, anchor)
+        if sec is not None:
+            cones[k] = (sec, anchor)
+    total = sum(sec[2] for sec, _ in cones.values())
+    if cones:
+        sin_beta = min(total / (2 * np.pi), 1.0)
+        # the waist circle at the anchors' mean height (the body's waist)
+        z_waist = float(np.mean([x0[a, 2] for _, a in cones.values()]))
+        r_waist = float(np.mean([sec[1] for sec, _ in cones.values()]))
+        apex_z = z_waist + r_waist * math.sqrt(max(1 - sin_beta ** 2, 0.0))
+        info["cone"] = {"panels": [names[k] for k in cones], "half_angle_deg": math.degrees(math.asin(sin_beta)),
+                        "apex_z": apex_z}
+        # consecutive azimuth ranges, front panels centred on the front
+        az0 = 0.0
+        for k, ((c, r, extent), anchor) in cones.items():
+            sel = np.flatnonzero(vpanel == k)
+            pl = pattern.panel(names[k]).placement
+            side = (pl.side or "").lower()
+            front = "back" not in side
+            span = 2 * np.pi * extent / total
+            mid = 0.0 if (front and len(cones) == 1) else az0 + 0.5 * span
+            if len(cones) > 1:
+                az0 += span
+            a_anchor = math.atan2(uv_m[anchor, 1] - c[1], uv_m[anchor, 0] - c[0])
+            # +u goes towards +x (the body's left) for front panels, -x for back ones
+            R = np.asarray(pl.rotation, float)
+            mirror = (R[0, 0] < 0) != (not front)
+            x0 = wrap_on_cone(x0, uv_m, sel, c, axis, apex_z, sin_beta, mid if front else mid + np.pi,
+                              a_anchor, 2 * np.pi / total, mirror)
+            info["wrapped_panels"].append(names[k])
     for (k, name, pl), py in zip(wrap, plane_y):
+        if k in cones:
+            continue
         side = (pl.side or "").lower()
         back = True if "back" in side else False if "front" in side else py > axis[1]
         x0 = wrap_on_cylinder(x0, np.flatnonzero(vpanel == k), axis, radius, back)

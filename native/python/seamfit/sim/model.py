@@ -64,7 +64,8 @@ class SimSettings:
     """
     method: str = "chebyshev"          # "chebyshev" | "newton"
     tolerance: float = 1e-3
-    max_iterations: int = 40000        # per stage (Newton: at most 600)
+    max_iterations: int = 40000        # Chebyshev iterations per stage
+    newton_max_iterations: int = 600   # Newton iterations per stage
     max_seconds: float = 0.0           # per stage, 0 = unlimited
     mu: float = 0.01
     barrier_length: float = 0.1
@@ -78,10 +79,14 @@ class SimSettings:
     progress_every: int = 50
     history_every: int = 10
     threads: int = 0                   # OpenMP threads, 0 = automatic
+    momentum_restart: int = 0          # Chebyshev: 0 energy checks only, 1 global, 2 per-vertex gradient restart
     # Dressing stages (see Simulator.drape).
     sew_first: bool = True             # stage 1: close the seams with gravity off
     sew_stage_tolerance: float = 1e-2
     sew_stage_gap_mm: float = 1.0
+    chunk: int = 2500                  # Chebyshev iterations between stage checks
+    polish: bool = True                # Newton after a Chebyshev settle that stopped short
+    polish_iterations: int = 300
 
     def validate(self) -> None:
         if self.method not in ("chebyshev", "newton"):
@@ -94,7 +99,7 @@ class SimSettings:
             raise SolveError(f"unknown barrier_interpolation {self.barrier_interpolation!r} (cubic or trilinear)")
         if not (self.barrier_distance > 0):
             raise SolveError("barrier_distance must be > 0")
-        if self.max_iterations < 0:
+        if self.max_iterations < 0 or self.newton_max_iterations < 0 or self.polish_iterations < 0:
             raise SolveError("max_iterations must be >= 0")
 
 
@@ -274,21 +279,24 @@ class Simulator:
         return self._core.sewing_gaps(np.asarray(x, dtype=np.float64))
 
     # --------------------------------------------------------------- solving
-    def _settings(self, tolerance=None, max_iterations=None, method=None):
+    def _settings(self, tolerance=None, max_iterations=None, method=None, max_seconds=None):
+        """Native solver settings; max_iterations=None means the method's budget."""
         s = self.settings
         st = core().SolveSettings()
         m = method or s.method
         st.method = 1 if m == "newton" else 0
         st.tolerance = float(tolerance if tolerance is not None else s.tolerance)
-        mi = s.max_iterations if max_iterations is None else max_iterations
-        st.max_iterations = int(min(mi, 600) if m == "newton" and max_iterations is None else mi)
-        st.max_seconds = float(s.max_seconds)
+        if max_iterations is None:
+            max_iterations = s.newton_max_iterations if m == "newton" else s.max_iterations
+        st.max_iterations = int(max_iterations)
+        st.max_seconds = float(s.max_seconds if max_seconds is None else max_seconds)
         st.rho = float(s.rho)
         st.alpha = float(s.alpha)
         st.warmup = int(s.warmup)
         st.check_every = int(s.check_every)
         st.progress_every = int(s.progress_every if st.method == 0 else 1)
         st.history_every = int(s.history_every)
+        st.momentum_restart = int(s.momentum_restart)
         return st
 
     def solve(self, x0=None, *, tolerance=None, max_iterations=None, method=None,
@@ -306,45 +314,108 @@ class Simulator:
     def drape(self, x0=None, progress: Optional[Callable[[int, float], bool]] = None) -> DrapeResult:
         """Dress the garment: close the seams with gravity off, then settle under gravity.
 
-        Stage 1 ("sew", skipped when settings.sew_first is False or the mesh has no
-        seams) runs until the residual falls below settings.sew_stage_tolerance or
-        the largest seam gap below settings.sew_stage_gap_mm; stage 2 ("settle")
-        runs to settings.tolerance. progress(iteration, residual) is called every
-        settings.progress_every iterations, counting over both stages; returning
-        False cancels (reported in the result, never raised).
+        Stages, each reported in the result:
+        "sew" (skipped when settings.sew_first is False or there are no seams):
+            gravity off, until the residual is below settings.sew_stage_tolerance
+            or the largest seam gap below settings.sew_stage_gap_mm;
+        "settle": gravity on, to settings.tolerance; with the Chebyshev method it
+            stops early when the residual stagnates (no 30 % gain over two chunks
+            of settings.chunk iterations);
+        "polish" (Chebyshev only, settings.polish): Newton from where the settle
+            stage stopped, when it stopped above the tolerance.
+        progress(iteration, residual) is called every settings.progress_every
+        iterations, counting over all stages; returning False cancels (reported
+        in the result, never raised).
         """
+        s = self.settings
         x = self._start(x0)
-        stages = []
+        stages: list[dict] = []
         offset = [0]
 
         def relay(it, res):
             return True if progress is None else progress(offset[0] + it, res)
 
-        if self.settings.sew_first and self._core.n_sewing > 0:
-            self._apply_params(gravity_scale=0.0)
-            st = self._settings(tolerance=self.settings.sew_stage_tolerance)
-            try:
-                # Chunks so the seam gap can end the stage early.
-                done = 0
-                while True:
-                    chunk = min(2000, max(st.max_iterations - done, 0))
-                    st_chunk = self._settings(tolerance=self.settings.sew_stage_tolerance, max_iterations=chunk)
-                    x, rep = self._core.solve(x, st_chunk, relay)
-                    done += rep["iterations"]
-                    offset[0] += rep["iterations"]
-                    rep = dict(rep, stage="sew", iterations=done)
-                    gap = float(np.max(self.sewing_gaps(x))) * 1000.0
-                    if (rep["converged"] or rep["cancelled"] or gap <= self.settings.sew_stage_gap_mm
-                            or done >= st.max_iterations or chunk == 0 or self._core.n_vertices == 0):
-                        break
-                stages.append(rep)
-            finally:
-                self._apply_params()
+        if s.sew_first and self._core.n_sewing > 0:
+            def seams_closed(xx):
+                return float(np.max(self.sewing_gaps(xx))) * 1000.0 <= s.sew_stage_gap_mm
+            x, rep = self._staged(x, "sew", s.method, s.sew_stage_tolerance, None, relay, offset,
+                                  gravity_scale=0.0, done=seams_closed)
+            stages.append(rep)
             if rep["cancelled"]:
                 return self._result(x, stages)
-        x, rep = self._core.solve(x, self._settings(), relay)
-        stages.append(dict(rep, stage="settle"))
+        x, rep = self._staged(x, "settle", s.method, s.tolerance, None, relay, offset,
+                              stagnation=s.method == "chebyshev")
+        stages.append(rep)
+        if (s.method == "chebyshev" and s.polish and not rep["converged"] and not rep["cancelled"]
+                and s.polish_iterations > 0):
+            x, rep = self._staged(x, "polish", "newton", s.tolerance, s.polish_iterations, relay, offset)
+            stages.append(rep)
         return self._result(x, stages)
+
+    def _staged(self, x, stage, method, tolerance, max_iterations, relay, offset, gravity_scale=1.0,
+                done=None, stagnation=False):
+        """One stage, run in chunks (Chebyshev) so it can stop on a condition
+        between chunks; the chunk reports are merged into one."""
+        s = self.settings
+        if max_iterations is None:
+            max_iterations = s.newton_max_iterations if method == "newton" else s.max_iterations
+        chunk = max(int(s.chunk), 1) if method == "chebyshev" else max_iterations
+        merged = None
+        t_start = time.perf_counter()
+        best = [math.inf]
+        since_best = 0
+        self._apply_params(gravity_scale=gravity_scale)
+        try:
+            total = 0
+            while True:
+                n = min(chunk, max(max_iterations - total, 0))
+                left = 0.0
+                if s.max_seconds > 0:
+                    left = max(s.max_seconds - (time.perf_counter() - t_start), 1e-3)
+                x, rep = self._core.solve(x, self._settings(tolerance, n, method, left), relay)
+                total += rep["iterations"]
+                offset[0] += rep["iterations"]
+                merged = self._merge(merged, rep, stage)
+                if rep["converged"] or rep["cancelled"] or total >= max_iterations or n == 0:
+                    break
+                if not rep["message"].startswith("not converged") or "iteration budget" not in rep["message"]:
+                    break  # time budget, line search failure, non-finite state: stop the stage
+                if done is not None and done(x):
+                    merged["message"] = f"stopped: seams closed, relative residual {rep['residual']:.3g}"
+                    break
+                if stagnation:
+                    if rep["residual"] < 0.7 * best[0]:
+                        best[0] = rep["residual"]
+                        since_best = 0
+                    else:
+                        since_best += 1
+                        if since_best >= 2:
+                            merged["message"] = (f"stopped: relative residual stagnated at {rep['residual']:.3g} "
+                                                 f"(> {tolerance:g}) after {total} iterations")
+                            break
+        finally:
+            self._apply_params()
+        return x, merged
+
+    @staticmethod
+    def _merge(merged, rep, stage):
+        rep = dict(rep, stage=stage)
+        if merged is None:
+            return rep
+        out = dict(rep)
+        for k in ("iterations", "seconds", "restarts", "projections", "rejected_steps", "momentum_restarts"):
+            out[k] = merged.get(k, 0) + rep.get(k, 0)
+        it0, t0 = merged["iterations"], merged["seconds"]
+        out["history_iteration"] = list(merged["history_iteration"]) + [it0 + i for i in rep["history_iteration"]]
+        out["history_seconds"] = list(merged["history_seconds"]) + [t0 + t for t in rep["history_seconds"]]
+        out["history_residual"] = list(merged["history_residual"]) + list(rep["history_residual"])
+        if rep["message"].startswith("not converged"):
+            out["message"] = (f"not converged: relative residual {rep['residual']:.3g} after "
+                              f"{out['iterations']} iterations" + (" (iteration budget)" if "iteration budget" in
+                                                                  rep["message"] else ""))
+        elif rep["converged"]:
+            out["message"] = f"converged: relative residual {rep['residual']:.3g} after {out['iterations']} iterations"
+        return out
 
     def _start(self, x0) -> np.ndarray:
         if x0 is None:

@@ -70,6 +70,8 @@ struct SolveSettings {
   // Chebyshev: drop momentum that runs against the force: 0 never (energy
   // checks only), 1 whole garment (restart the sequence), 2 per vertex.
   int momentum_restart = 0;
+  // Newton: block-Jacobi sweeps after each Newton step (0: pure Newton).
+  int newton_smoothing = 0;
 };
 
 struct SolveReport {
@@ -170,6 +172,9 @@ class Simulator {
                               const std::atomic<bool>* cancel);
   SolveReport solve_newton(double* x, const SolveSettings& s, const ProgressFn& progress,
                            const std::atomic<bool>* cancel);
+  // Plain block-Jacobi descent sweeps (barrier-safe, energy never rises);
+  // returns the energy at the result.
+  double jacobi_sweeps(double* x, int sweeps, double alpha);
   // Barrier-safe displacement dv of one vertex from xo (with sample s there);
   // dv is clipped in place, sn receives the sample at the result. far > 0:
   // beyond that distance return kStepFar with a Lipschitz bound, unsampled.

@@ -87,6 +87,7 @@ class SimSettings:
     chunk: int = 2500                  # Chebyshev iterations between stage checks
     polish: bool = True                # Newton after a Chebyshev settle that stopped short
     polish_iterations: int = 300
+    polish_smoothing: int = 5          # block-Jacobi sweeps after each polish Newton step
 
     def validate(self) -> None:
         if self.method not in ("chebyshev", "newton"):
@@ -279,7 +280,7 @@ class Simulator:
         return self._core.sewing_gaps(np.asarray(x, dtype=np.float64))
 
     # --------------------------------------------------------------- solving
-    def _settings(self, tolerance=None, max_iterations=None, method=None, max_seconds=None):
+    def _settings(self, tolerance=None, max_iterations=None, method=None, max_seconds=None, smoothing=0):
         """Native solver settings; max_iterations=None means the method's budget."""
         s = self.settings
         st = core().SolveSettings()
@@ -297,6 +298,7 @@ class Simulator:
         st.progress_every = int(s.progress_every if st.method == 0 else 1)
         st.history_every = int(s.history_every)
         st.momentum_restart = int(s.momentum_restart)
+        st.newton_smoothing = int(smoothing)
         return st
 
     def solve(self, x0=None, *, tolerance=None, max_iterations=None, method=None,
@@ -348,12 +350,13 @@ class Simulator:
         stages.append(rep)
         if (s.method == "chebyshev" and s.polish and not rep["converged"] and not rep["cancelled"]
                 and s.polish_iterations > 0):
-            x, rep = self._staged(x, "polish", "newton", s.tolerance, s.polish_iterations, relay, offset)
+            x, rep = self._staged(x, "polish", "newton", s.tolerance, s.polish_iterations, relay, offset,
+                                  smoothing=s.polish_smoothing)
             stages.append(rep)
         return self._result(x, stages)
 
     def _staged(self, x, stage, method, tolerance, max_iterations, relay, offset, gravity_scale=1.0,
-                done=None, stagnation=False):
+                done=None, stagnation=False, smoothing=0):
         """One stage, run in chunks (Chebyshev) so it can stop on a condition
         between chunks; the chunk reports are merged into one."""
         s = self.settings
@@ -372,7 +375,7 @@ class Simulator:
                 left = 0.0
                 if s.max_seconds > 0:
                     left = max(s.max_seconds - (time.perf_counter() - t_start), 1e-3)
-                x, rep = self._core.solve(x, self._settings(tolerance, n, method, left), relay)
+                x, rep = self._core.solve(x, self._settings(tolerance, n, method, left, smoothing), relay)
                 total += rep["iterations"]
                 offset[0] += rep["iterations"]
                 merged = self._merge(merged, rep, stage)
@@ -384,8 +387,10 @@ class Simulator:
                     merged["message"] = f"stopped: seams closed, relative residual {rep['residual']:.3g}"
                     break
                 if stagnation:
-                    if rep["residual"] < 0.7 * best[0]:
-                        best[0] = rep["residual"]
+                    # the residual oscillates under momentum: judge a chunk by its best value
+                    chunk_best = min(list(rep["history_residual"]) + [rep["residual"]])
+                    if chunk_best < 0.7 * best[0]:
+                        best[0] = chunk_best
                         since_best = 0
                     else:
                         since_best += 1

@@ -509,13 +509,23 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
     }
     const double tmax = 1.0;
     X = xt;
-    if (st.newton_smoothing > 0) {
-      // Block-Jacobi sweeps between Newton steps: the global line search
-      // moves stiff local contacts (a hem loaded onto a toe) by tiny amounts;
-      // per-vertex steps settle them at once.
-      jacobi_sweeps(x, st.newton_smoothing, st.alpha);
-    }
     E = force(x, f.data(), &et);
+    if (st.newton_smoothing > 0) {
+      // Block-Jacobi sweeps when a single vertex holds most of the residual: the
+      // global line search moves a stiff local contact (a hem loaded onto a
+      // toe) by tiny amounts, per-vertex steps settle it at once. Elsewhere
+      // they would only perturb Newton's path.
+      double tot = 0, top = 0;
+      for (int v = 0; v < n_; ++v) {
+        const double q = f[3 * v] * f[3 * v] + f[3 * v + 1] * f[3 * v + 1] + f[3 * v + 2] * f[3 * v + 2];
+        tot += q;
+        top = std::max(top, q);
+      }
+      if (top > 0.5 * tot) {
+        jacobi_sweeps(x, st.newton_smoothing, st.alpha);
+        E = force(x, f.data(), &et);
+      }
+    }
     shift = t >= 0.999 * tmax ? shift * 0.1 : shift;
     if (shift < 1e-12) shift = 0;
   }

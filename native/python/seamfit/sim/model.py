@@ -86,8 +86,8 @@ class SimSettings:
     sew_stage_gap_mm: float = 1.0
     chunk: int = 2500                  # Chebyshev iterations between stage checks
     polish: bool = True                # Newton after a Chebyshev settle that stopped short
-    polish_iterations: int = 300
-    polish_smoothing: int = 5          # block-Jacobi sweeps after each polish Newton step
+    polish_iterations: int = 600
+    polish_smoothing: int = 5          # block-Jacobi sweeps after a polish Newton step that leaves one vertex holding most of the residual
 
     def validate(self) -> None:
         if self.method not in ("chebyshev", "newton"):

@@ -281,6 +281,14 @@ def test_evaluation_inside_body_is_an_error_not_nan():
         sim.force(x)
     with pytest.raises(SolveError, match="shape"):
         sim.force(x[:3])
+    # The paper's projection: onto the surface, at the barrier's rest gap.
+    y, moved = sim.project_outside(x, 1e-9, sim.projection_gap)
+    assert moved == 1
+    np.testing.assert_array_equal(y[1:], x[1:])
+    # (from the capsule's axis, where the field's gradient is weak, Newton steps
+    # on phi overshoot a little)
+    assert 0.5 * sim.projection_gap <= sim.sample_phi(y, True)[0] <= 5 * sim.projection_gap
+    assert np.all(np.isfinite(sim.force(y)))
 
 
 def test_barrier_vanishes_smoothly_beyond_its_distance():

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
 import numpy as np
@@ -56,8 +56,9 @@ class SimSettings:
     """Solver and model controls.
 
     tolerance: convergence threshold on the relative residual |f| / |m g| (the
-        norm of the net force over the norm of the vertex weights). 1e-3 means the
-        unbalanced force is a thousandth of the garment's weight.
+        norm of the net force over the norm of the vertex weights). At 1e-3 the
+        unbalanced force is a thousandth of the weights and positions are good
+        to about a millimetre (docs/simulator.md).
     mu: dimensionless barrier strength; the per-vertex weight is
         mu * barrier_length * g * m_i, so a vertex resting on the body under its
         own weight settles at phi = mu * barrier_length (1 mm by default).
@@ -87,7 +88,9 @@ class SimSettings:
     chunk: int = 2500                  # Chebyshev iterations between stage checks
     polish: bool = True                # Newton after a Chebyshev settle that stopped short
     polish_iterations: int = 600
-    polish_smoothing: int = 5          # block-Jacobi sweeps after a polish Newton step that leaves one vertex holding most of the residual
+    # Block-Jacobi sweeps after a polish Newton step that leaves one vertex
+    # holding most of the residual (a stiff local contact).
+    polish_smoothing: int = 5
 
     def validate(self) -> None:
         if self.method not in ("chebyshev", "newton"):
@@ -278,6 +281,12 @@ class Simulator:
 
     def sewing_gaps(self, x) -> np.ndarray:
         return self._core.sewing_gaps(np.asarray(x, dtype=np.float64))
+
+    def project_outside(self, x) -> tuple[np.ndarray, int]:
+        """Vertices inside the body moved onto its surface (to the barrier's rest
+        gap), as the solvers do with start positions; returns (x, how many)."""
+        gap = self._core.projection_gap
+        return self._core.project_outside(np.asarray(x, dtype=np.float64), 1e-9, gap)
 
     # --------------------------------------------------------------- solving
     def _settings(self, tolerance=None, max_iterations=None, method=None, max_seconds=None, smoothing=0):

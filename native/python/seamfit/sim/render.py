@@ -28,53 +28,80 @@ def _shade(tri_pts: np.ndarray, toward: np.ndarray, base: np.ndarray) -> np.ndar
     return np.clip(base * (0.35 + 0.65 * lam[:, None]), 0, 1)
 
 
+def _draw_view(ax, x, tris, panel, bv, bf, right, toward):
+    from matplotlib.collections import PolyCollection
+    cloth_col = _PANEL_COLOURS[panel % len(_PANEL_COLOURS)]
+    pts = x[tris]
+    polys = [np.stack([pts @ right, pts[:, :, 2]], axis=-1)]
+    cols = [_shade(pts, toward, cloth_col)]
+    depth = [(pts @ toward).mean(axis=1)]
+    if bv is not None and len(bf):
+        bp = bv[bf]
+        polys.append(np.stack([bp @ right, bp[:, :, 2]], axis=-1))
+        cols.append(_shade(bp, toward, np.tile([0.82, 0.80, 0.78], (len(bf), 1))))
+        # Cloth lies within millimetres of the skin: bias the body back so
+        # centroid sorting never draws skin over the cloth resting on it.
+        depth.append((bp @ toward).mean(axis=1) - 0.03)
+    P = np.concatenate(polys)
+    C = np.concatenate(cols)
+    order = np.argsort(np.concatenate(depth))  # far first
+    ax.add_collection(PolyCollection(P[order], facecolors=C[order], edgecolors="none", antialiased=False))
+    h, v = P[..., 0].ravel(), P[..., 1].ravel()
+    cx, cz = 0.5 * (h.min() + h.max()), 0.5 * (v.min() + v.max())
+    half = 0.55 * max(h.max() - h.min(), v.max() - v.min())
+    ax.set_xlim(cx - half, cx + half)
+    ax.set_ylim(cz - half, cz + half)
+    ax.set_aspect("equal")
+    ax.axis("off")
+
+
+def _body_near(x, body_vertices, body_faces, margin=0.15):
+    if body_vertices is None:
+        return None, None
+    bv = np.asarray(body_vertices, float)
+    bf = np.asarray(body_faces, int)
+    zlo, zhi = x[:, 2].min() - margin, x[:, 2].max() + margin
+    keep = np.all((bv[bf][:, :, 2] > zlo) & (bv[bf][:, :, 2] < zhi), axis=1)
+    return bv, bf[keep]
+
+
+def render_front_grid(path, items, columns: int = 3, dpi: int = 90) -> Path:
+    """Front views of several drapes: items = [(title, x, triangles, triangle_panel,
+    body_vertices, body_faces), ...]."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rows = (len(items) + columns - 1) // columns
+    fig, axes = plt.subplots(rows, columns, figsize=(3.4 * columns, 3.6 * rows), squeeze=False)
+    for ax in axes.ravel():
+        ax.axis("off")
+    for ax, (title, x, tris, panel, bv, bf) in zip(axes.ravel(), items):
+        x = np.asarray(x, float)
+        bv, bf = _body_near(x, bv, bf)
+        _draw_view(ax, x, np.asarray(tris, int), np.asarray(panel, int), bv, bf, *_VIEWS[0][1:])
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
+
+
 def render_drape(path, x: np.ndarray, triangles: np.ndarray, triangle_panel: np.ndarray | None = None,
                  body_vertices: np.ndarray | None = None, body_faces: np.ndarray | None = None,
                  title: str | None = None, dpi: int = 110) -> Path:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.collections import PolyCollection
-
     x = np.asarray(x, float)
     tris = np.asarray(triangles, int)
     panel = np.zeros(len(tris), int) if triangle_panel is None else np.asarray(triangle_panel, int)
-    cloth_col = _PANEL_COLOURS[panel % len(_PANEL_COLOURS)]
-    lo, hi = x.min(axis=0), x.max(axis=0)
-    if body_vertices is not None:
-        bv = np.asarray(body_vertices, float)
-        bf = np.asarray(body_faces, int)
-        # Only the part of the body near the garment, so the picture is not mostly legs.
-        zlo, zhi = lo[2] - 0.15, hi[2] + 0.15
-        keep = np.all((bv[bf][:, :, 2] > zlo) & (bv[bf][:, :, 2] < zhi), axis=1)
-        bf = bf[keep]
+    bv, bf = _body_near(x, body_vertices, body_faces)
     fig, axes = plt.subplots(1, 3, figsize=(11, 5.2))
     for ax, (name, right, toward) in zip(axes, _VIEWS):
-        polys, cols, depth = [], [], []
-        pts = x[tris]
-        polys.append(np.stack([pts @ right, pts[:, :, 2]], axis=-1))
-        cols.append(_shade(pts, toward, cloth_col))
-        depth.append((pts @ toward).mean(axis=1))
-        if body_vertices is not None and len(bf):
-            bp = bv[bf]
-            polys.append(np.stack([bp @ right, bp[:, :, 2]], axis=-1))
-            cols.append(_shade(bp, toward, np.tile([0.82, 0.80, 0.78], (len(bf), 1))))
-            # Cloth lies within millimetres of the skin: bias the body back so
-            # centroid sorting never draws skin over the cloth resting on it.
-            depth.append((bp @ toward).mean(axis=1) - 0.03)
-        P = np.concatenate(polys)
-        C = np.concatenate(cols)
-        order = np.argsort(np.concatenate(depth))  # far first
-        ax.add_collection(PolyCollection(P[order], facecolors=C[order], edgecolors="none", antialiased=False))
-        h = np.r_[P[..., 0].ravel()]
-        v = np.r_[P[..., 1].ravel()]
-        cx, cz = 0.5 * (h.min() + h.max()), 0.5 * (v.min() + v.max())
-        half = 0.55 * max(h.max() - h.min(), v.max() - v.min())
-        ax.set_xlim(cx - half, cx + half)
-        ax.set_ylim(cz - half, cz + half)
-        ax.set_aspect("equal")
+        _draw_view(ax, x, tris, panel, bv, bf, right, toward)
         ax.set_title(name)
-        ax.axis("off")
     if title:
         fig.suptitle(title)
     fig.tight_layout()

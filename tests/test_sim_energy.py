@@ -28,6 +28,7 @@ def make(mesh, term=None, sdf=None, mu=0.01, **over):
     pr.mu = mu if on("barrier") else 0.0
     pr.barrier_length = 0.1
     pr.barrier_distance = over.get("dhat", 0.06)  # reaches the test states
+    pr.barrier_smooth = over.get("smooth", True)
     sim = core().Simulator(0.01 * mesh.uv_cm, mesh.triangles, mesh.sewing_pairs, pr)
     if sdf is not None:
         sim.set_sdf(sdf.values, sdf.origin, sdf.spacing)
@@ -296,3 +297,56 @@ def test_barrier_vanishes_smoothly_beyond_its_distance():
     f_near = sim.force(mesh.x0 + np.array([0, 0, 0.01 - 1e-6]))
     f_in = sim.force(mesh.x0 + np.array([0, 0, 0.005]))
     assert np.abs(f_near).max() < 1e-6 * np.abs(f_in).max()
+
+
+@pytest.mark.parametrize("smooth", [True, False])
+def test_barrier_derivatives_for_both_sdf_readings(smooth):
+    # The barrier reads the SDF grid as a C2 cubic B-spline (default) or the
+    # trilinear interpolant; force, Hessian and d/dp are exact for both.
+    mesh = tube_case()
+    sim = make(mesh, "barrier", body_for(mesh), smooth=smooth)
+    x = perturbed(mesh, 0.01, seed=11)
+    f = sim.force(x)
+    np.testing.assert_allclose(f, fd_force(sim, x), atol=2e-6 * np.abs(f).max(), rtol=1e-5)
+    v = np.random.default_rng(12).standard_normal(x.shape)
+    eps = 1e-6
+    fd = -(sim.force(x + eps * v) - sim.force(x - eps * v)) / (2 * eps)
+    np.testing.assert_allclose(sim.hess_vec(x, v, False), fd, atol=2e-6 * np.abs(fd).max(), rtol=1e-5)
+    lam = np.random.default_rng(13).standard_normal(x.shape)
+    p0 = 0.01 * mesh.uv_cm
+    dp = np.random.default_rng(14).standard_normal(p0.shape)
+    e = 1e-7
+    sim.set_pattern(p0 + e * dp); fp = np.sum(lam * sim.force(x))
+    sim.set_pattern(p0 - e * dp); fm = np.sum(lam * sim.force(x))
+    sim.set_pattern(p0)
+    assert np.sum(sim.dfdp_T(x, lam) * dp) == pytest.approx((fp - fm) / (2 * e), rel=1e-5)
+
+
+def test_smooth_barrier_field_is_close_to_the_grid_and_c1():
+    mesh = tube_case()
+    sdf = body_for(mesh)
+    sim = make(mesh, "barrier", sdf, smooth=True)
+    rng = np.random.default_rng(3)
+    # points near the capsule surface (radius 0.1)
+    ang = rng.uniform(0, 2 * np.pi, 300)
+    r = 0.1 + rng.uniform(-0.02, 0.03, 300)
+    pts = np.c_[r * np.cos(ang), r * np.sin(ang), rng.uniform(0.0, 0.2, 300)]
+    pts = pts[: sim.n_vertices] if len(pts) > sim.n_vertices else np.vstack([pts, np.tile(pts[:1], (sim.n_vertices - len(pts), 1))])
+    smooth = sim.sample_phi(pts, True)
+    grid = sim.sample_phi(pts, False)
+    exact = np.hypot(pts[:, 0], pts[:, 1]) - 0.1
+    # B-spline smoothing of a 1 cm grid on a 10 cm radius: h^2/6 * (1/R) ~ 0.17 mm
+    assert np.abs(smooth - exact).max() < 0.5e-3
+    assert np.abs(grid - exact).max() < 0.5e-3
+    # C1 across a cell face: the gradient does not jump (trilinear does).
+    h = sdf.spacing
+    face = sdf.origin[0] + h * np.round((0.1 - sdf.origin[0]) / h)
+    a = np.tile([face - 1e-7, 0.003, 0.1031], (sim.n_vertices, 1))
+    b = np.tile([face + 1e-7, 0.003, 0.1031], (sim.n_vertices, 1))
+    pr = sim.params
+    for smooth_flag, jumps in ((True, False), (False, True)):
+        pr.barrier_smooth = smooth_flag
+        sim.params = pr
+        ga, gb = sim.force(a)[0], sim.force(b)[0]
+        jump = np.abs(ga - gb).max() / np.abs(ga).max()
+        assert (jump > 1e-3) == jumps, jump

@@ -66,6 +66,7 @@ py::dict report_dict(const SolveReport& r) {
   d["cancelled"] = r.cancelled;
   d["restarts"] = r.restarts;
   d["projections"] = r.projections;
+  d["rejected_steps"] = r.rejected_steps;
   d["final_rho"] = r.final_rho;
   d["final_alpha"] = r.final_alpha;
   d["message"] = r.message;
@@ -114,7 +115,9 @@ void bind_sim(py::module_& m) {
           })
       .def_readwrite("mu", &SimParams::mu, "dimensionless barrier strength")
       .def_readwrite("barrier_length", &SimParams::barrier_length, "barrier length scale l_b (m)")
-      .def_readwrite("barrier_distance", &SimParams::barrier_distance, "barrier activation distance d (m)");
+      .def_readwrite("barrier_distance", &SimParams::barrier_distance, "barrier activation distance d (m)")
+      .def_readwrite("barrier_smooth", &SimParams::barrier_smooth,
+                     "barrier field: cubic B-spline of the grid (True) or trilinear (False)");
 
   py::class_<SolveSettings>(m, "SolveSettings", "Solver controls.")
       .def(py::init<>())
@@ -261,14 +264,16 @@ void bind_sim(py::module_& m) {
            },
            py::arg("x"), py::arg("lam"), "(df/dp)^T lambda, shape (n, 2), f = -dE/dx")
       .def("sample_phi",
-           [](Simulator& s, DArr x) {
+           [](Simulator& s, DArr x, bool barrier_field) {
              require_shape(x, s.n_vertices(), 3, "x");
              py::array_t<double> phi(s.n_vertices());
              double* pp = phi.mutable_data();
              py::gil_scoped_release nogil;
-             s.sample_phi(x.data(), pp);
+             s.sample_phi(x.data(), pp, barrier_field);
              return phi;
-           })
+           },
+           py::arg("x"), py::arg("barrier_field") = false,
+           "phi at every vertex: the grid's trilinear field, or the barrier's field")
       .def("sewing_gaps",
            [](Simulator& s, DArr x) {
              require_shape(x, s.n_vertices(), 3, "x");

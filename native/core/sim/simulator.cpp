@@ -11,6 +11,7 @@
 #include "sim/terms/barrier.hpp"
 #include "sim/terms/bending.hpp"
 #include "sim/terms/mass.hpp"
+#include "sim/terms/sdf_smooth.hpp"
 #include "sim/terms/spring.hpp"
 
 namespace seamfit::sim {
@@ -231,7 +232,17 @@ void Simulator::clear_sdf() {
   sdf_ = SdfGridView();
 }
 
-SdfSample Simulator::sdf_at(Vec3 p) const { return sdf_sample(sdf_, p); }
+SdfSample Simulator::sdf_at(Vec3 p) const {
+  if (params_.barrier_smooth) {
+    const SdfSample2 s = sdf_sample_smooth<false>(sdf_, p);
+    return {s.phi, s.grad};
+  }
+  return sdf_sample(sdf_, p);
+}
+
+Sym3 Simulator::sdf_hess_at(Vec3 p) const {
+  return params_.barrier_smooth ? sdf_sample_smooth<true>(sdf_, p).hess : sdf_hessian(sdf_, p);
+}
 
 void Simulator::set_params(const SimParams& params) {
   const bool mass_changed = params.density != params_.density;
@@ -355,13 +366,16 @@ int Simulator::first_inside(const double* x, double* phi_out) const {
   return -1;
 }
 
-void Simulator::sample_phi(const double* x, double* phi) const {
+void Simulator::sample_phi(const double* x, double* phi, bool barrier_field) const {
 #pragma omp parallel for schedule(static) num_threads(threads_)
-  for (int v = 0; v < n_; ++v)
-    phi[v] = has_sdf_ ? sdf_at(vget(x, v)).phi : std::numeric_limits<double>::infinity();
+  for (int v = 0; v < n_; ++v) {
+    if (!has_sdf_) phi[v] = std::numeric_limits<double>::infinity();
+    else phi[v] = barrier_field ? sdf_at(vget(x, v)).phi : sdf_sample(sdf_, vget(x, v)).phi;
+  }
 }
 
-void Simulator::evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* diag, SdfSample* samples) {
+void Simulator::evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* diag, SdfSample* samples,
+                         bool samples_known) {
   const int E = n_springs();
   const double Y = params_.stretch_Y, Ys = params_.sewing_Y, kb = params_.bend_kb;
   const Vec3 gv = params_.gravity;
@@ -419,8 +433,8 @@ void Simulator::evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* d
       if (diag) D += sym3_identity(stick_k_[v]);
     }
     if (bar) {
-      const SdfSample s = sdf_at(xv);
-      if (samples) samples[v] = s;
+      const SdfSample s = samples_known ? samples[v] : sdf_at(xv);
+      if (samples && !samples_known) samples[v] = s;
       const double c = barrier_c_[v];
       if (s.phi > 0) {
         e_bar += barrier_energy(c, dhat, s.phi);
@@ -507,7 +521,7 @@ const Eigen::SparseMatrix<double>& Simulator::hessian(const double* x, bool psd)
       const SdfSample s = sdf_at(xv);
       if (s.phi > 0) {
         const double c = barrier_c_[v], dh = params_.barrier_distance;
-        add(self, psd ? barrier_hess_psd(c, dh, s) : barrier_hess(c, dh, s, sdf_hessian(sdf_, xv)), 1.0);
+        add(self, psd ? barrier_hess_psd(c, dh, s) : barrier_hess(c, dh, s, sdf_hess_at(xv)), 1.0);
       }
     }
   }
@@ -545,7 +559,7 @@ void Simulator::hess_vec(const double* x, const double* vin, double* out, bool p
       const SdfSample s = sdf_at(xv);
       if (s.phi > 0) {
         const double c = barrier_c_[v], dh = params_.barrier_distance;
-        r += (psd ? barrier_hess_psd(c, dh, s) : barrier_hess(c, dh, s, sdf_hessian(sdf_, xv))) * vv;
+        r += (psd ? barrier_hess_psd(c, dh, s) : barrier_hess(c, dh, s, sdf_hess_at(xv))) * vv;
       }
     }
     vset(out, v, r);

@@ -41,6 +41,9 @@ struct SimParams {
   double mu = 0.01;         // dimensionless barrier strength
   double barrier_length = 0.1;  // l_b (m): c_i = mu * l_b * g0 * m_i
   double barrier_distance = 0.01;  // activation distance d (m): no barrier for phi >= d
+  // Barrier field: C2 cubic B-spline of the grid values (true) or the grid's
+  // trilinear interpolant (false); see sim/terms/sdf_smooth.hpp for why.
+  bool barrier_smooth = true;
 };
 
 // Standard gravity used to scale the barrier weight (kept when gravity is
@@ -75,6 +78,7 @@ struct SolveReport {
   bool cancelled = false;
   int restarts = 0;          // Chebyshev restarts after an energy rise
   int projections = 0;       // vertices projected out of the body
+  long rejected_steps = 0;   // vertex steps dropped by the barrier-safe step
   double final_rho = 0, final_alpha = 0;
   std::string message;
   std::vector<double> hist_iter, hist_seconds, hist_residual;
@@ -117,7 +121,9 @@ class Simulator {
   // Index of the first vertex with phi <= 0 (the barrier is undefined there), or -1.
   int first_inside(const double* x, double* phi_out = nullptr) const;
   // Signed distance at every vertex (n); +inf everywhere when no SDF is set.
-  void sample_phi(const double* x, double* phi) const;
+  // barrier_field: the field the barrier sees (see SimParams::barrier_smooth);
+  // otherwise the grid's trilinear interpolant (sdf_sample).
+  void sample_phi(const double* x, double* phi, bool barrier_field = false) const;
   // Energy (+inf if a vertex is inside the body).
   double energy(const double* x, EnergyTerms* terms = nullptr);
   // f = -dE/dx (3n); returns the energy. Precondition: no vertex inside.
@@ -151,12 +157,16 @@ class Simulator {
   void update_rest_state();
   void update_barrier_weights();
   // Fused pass: energy terms, force, and (optionally) PSD diagonal blocks.
-  void evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* diag, SdfSample* samples);
+  // samples: per-vertex SDF samples, written here, or read when samples_known
+  // (the caller sampled x already).
+  void evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* diag, SdfSample* samples,
+                bool samples_known = false);
   SolveReport solve_chebyshev(double* x, const SolveSettings& s, const ProgressFn& progress,
                               const std::atomic<bool>* cancel);
   SolveReport solve_newton(double* x, const SolveSettings& s, const ProgressFn& progress,
                            const std::atomic<bool>* cancel);
-  SdfSample sdf_at(Vec3 p) const;
+  SdfSample sdf_at(Vec3 p) const;   // the barrier's field: value and gradient
+  Sym3 sdf_hess_at(Vec3 p) const;    // and its Hessian
 
   int n_;
   int threads_ = 1;

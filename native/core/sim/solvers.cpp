@@ -70,20 +70,13 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   std::vector<Sym3> D(n_);
   std::vector<SdfSample> S(bar ? n_ : 0);
   EnergyTerms et;
-  auto eval = [&](std::vector<double>& xx) -> double {
-    evaluate(xx.data(), f.data(), &et, D.data(), bar ? S.data() : nullptr);
-    double E = et.total();
-    if (!std::isfinite(E) && bar) {
-      // A step crossed the body despite the step limit (curvature): put the
-      // offending vertices back outside and evaluate again.
-      rep.projections += project_outside(xx.data(), kProjectFloor, gap);
-      evaluate(xx.data(), f.data(), &et, D.data(), S.data());
-      E = et.total();
-    }
-    return E;
+  // known: S already holds the samples of xx (the update loop sampled them).
+  auto eval = [&](std::vector<double>& xx, bool known) -> double {
+    evaluate(xx.data(), f.data(), &et, D.data(), bar ? S.data() : nullptr, known && bar);
+    return et.total();
   };
 
-  double E = eval(xc), Eck = E;
+  double E = eval(xc, false), Eck = E;
   double alpha = std::min(std::max(st.alpha, 1e-3), 1.0);
   const bool auto_rho = !(st.rho > 0);
   double rho = auto_rho ? 0.0 : std::min(st.rho, 0.99999);
@@ -113,7 +106,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
     if (!std::isfinite(res)) {
       // Never hand back a poisoned state: fall back to the last checkpoint.
       xc = ck;
-      E = eval(xc);
+      E = eval(xc, false);
       rep.residual = residual(f.data());
       rep.message = "stopped: non-finite force at iteration " + std::to_string(it) + "; returned the last good state";
       break;
@@ -169,13 +162,20 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
     } else {
       omega = 4.0 / (4.0 - rho * rho * omega);
     }
-    // Chebyshev combination and the barrier-safe step limit.
-#pragma omp parallel for schedule(static) num_threads(threads_)
+    // Chebyshev combination and the barrier-safe step: a vertex may close at
+    // most half its gap along the SDF normal, and never moves further than
+    // its gap or kFreeStep; a step that still lands too close (curved or
+    // creased body) slides back out to half the old gap, or is dropped for
+    // that vertex together with its momentum.
+    int rejected = 0;
+#pragma omp parallel for reduction(+ : rejected) schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
+      const Vec3 xo = {xc[3 * v], xc[3 * v + 1], xc[3 * v + 2]};
       Vec3 dv;
       dv.x = omega * d[3 * v] + (omega - 1.0) * (xc[3 * v] - xp[3 * v]);
       dv.y = omega * d[3 * v + 1] + (omega - 1.0) * (xc[3 * v + 1] - xp[3 * v + 1]);
       dv.z = omega * d[3 * v + 2] + (omega - 1.0) * (xc[3 * v + 2] - xp[3 * v + 2]);
+      Vec3 xn = xo + dv;
       if (bar) {
         const SdfSample& s = S[v];
         const double gn = norm(s.grad);
@@ -186,15 +186,39 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
         }
         const double len = norm(dv), cap = std::max(0.9 * s.phi, kFreeStep);
         if (len > cap) dv = (cap / len) * dv;
+        xn = xo + dv;
+        SdfSample sn = sdf_at(xn);
+        // Sliding along the body: where the body curves away from the tangent
+        // plane (or creases), a step can close more than half the gap although
+        // its normal part may not; such a step is pushed back out along the
+        // field to its linear prediction phi + grad.dv (at least half the old
+        // gap), a few Newton steps on phi. Failing that the vertex stays.
+        // Steps that keep half the gap are left alone (pure descent).
+        const double want = std::max(s.phi + dot(s.grad, dv), 0.5 * s.phi);
+        for (int h = 0; h < 3 && sn.phi < 0.5 * s.phi && sn.phi < want; ++h) {
+          const double g2 = norm2(sn.grad);
+          if (!(g2 > 1e-12)) break;
+          xn += ((want - sn.phi) / g2) * sn.grad;
+          sn = sdf_at(xn);
+        }
+        if (sn.phi < 0.25 * s.phi || !(sn.phi > kProjectFloor) || norm(xn - xo) > 2.0 * std::max(len, 1e-300)) {
+          xn = xo;
+          sn = s;
+          ++rejected;
+        }
+        S[v] = sn;
       }
-      xp[3 * v] = xc[3 * v];
-      xp[3 * v + 1] = xc[3 * v + 1];
-      xp[3 * v + 2] = xc[3 * v + 2];
-      xc[3 * v] += dv.x;
-      xc[3 * v + 1] += dv.y;
-      xc[3 * v + 2] += dv.z;
+      const bool stay = bar && xn.x == xo.x && xn.y == xo.y && xn.z == xo.z;
+      // A dropped step also drops the vertex's momentum.
+      xp[3 * v] = stay ? xn.x : xo.x;
+      xp[3 * v + 1] = stay ? xn.y : xo.y;
+      xp[3 * v + 2] = stay ? xn.z : xo.z;
+      xc[3 * v] = xn.x;
+      xc[3 * v + 1] = xn.y;
+      xc[3 * v + 2] = xn.z;
     }
-    E = eval(xc);
+    rep.rejected_steps += rejected;
+    E = eval(xc, true);
     ++k;
     if (k % check == 0 || !std::isfinite(E)) {
       if (!(E <= Eck + energy_slack(et))) {
@@ -203,7 +227,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
         ++rises;
         xc = ck;
         xp = ck;
-        E = eval(xc);
+        E = eval(xc, false);
         k = 0;
         omega = 1.0;
         upd_norm.clear();

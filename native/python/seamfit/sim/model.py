@@ -69,6 +69,7 @@ class SimSettings:
     mu: float = 0.01
     barrier_length: float = 0.1
     barrier_distance: float = 0.01     # no barrier beyond 1 cm from the body
+    barrier_interpolation: str = "cubic"  # "cubic" (C2 B-spline) or "trilinear" SDF reading
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
     rho: float = 0.0                   # Chebyshev spectral radius, 0 = automatic
     alpha: float = 0.9                 # Jacobi step length
@@ -89,6 +90,8 @@ class SimSettings:
             raise SolveError("tolerance must be > 0")
         if not (0 <= self.mu <= 1):
             raise SolveError(f"mu must lie in [0, 1], got {self.mu}")
+        if self.barrier_interpolation not in ("cubic", "trilinear"):
+            raise SolveError(f"unknown barrier_interpolation {self.barrier_interpolation!r} (cubic or trilinear)")
         if not (self.barrier_distance > 0):
             raise SolveError("barrier_distance must be > 0")
         if self.max_iterations < 0:
@@ -184,6 +187,7 @@ class Simulator:
         pr.mu = s.mu
         pr.barrier_length = s.barrier_length
         pr.barrier_distance = s.barrier_distance
+        pr.barrier_smooth = s.barrier_interpolation == "cubic"
         return pr
 
     def _apply_params(self, gravity_scale: float = 1.0, sewing_scale: float = 1.0):
@@ -261,8 +265,10 @@ class Simulator:
         """(df/dp)^T lam, shape (N, 2), for the adjoint (p in metres)."""
         return self._core.dfdp_T(np.asarray(x, dtype=np.float64), np.asarray(lam, dtype=np.float64))
 
-    def phi(self, x) -> np.ndarray:
-        return self._core.sample_phi(np.asarray(x, dtype=np.float64))
+    def phi(self, x, barrier_field: bool = False) -> np.ndarray:
+        """phi at every vertex: the SDF grid's trilinear field (the body as
+        measured), or with barrier_field the smooth field the barrier acts on."""
+        return self._core.sample_phi(np.asarray(x, dtype=np.float64), barrier_field)
 
     def sewing_gaps(self, x) -> np.ndarray:
         return self._core.sewing_gaps(np.asarray(x, dtype=np.float64))

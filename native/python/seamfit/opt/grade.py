@@ -227,6 +227,7 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
     seconds_precompute = t_loop - t_start
 
     ck_theta, ck_x, ck_f = theta.copy(), x.copy(), f0
+    checkpoints = [(0, f0)]   # accepted exact checkpoints (iteration, objective)
     S, s = settings.inner_iterations, settings.step
     k = 0              # accepted outer iterations
     work = 0           # outer iterations done, discarded ones included
@@ -277,6 +278,7 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
             continue
         decrease = ck_f - f
         ck_theta, ck_x, ck_f = theta.copy(), res.x.copy(), f
+        checkpoints.append((k, f))
         x = res.x
         hist_append(f, True)
         tell(stage="optimize", iteration=k, objective=f, exact=True)
@@ -313,6 +315,8 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
         "terms_final": terms_final,
         "strengths": asdict(strengths),
         "outer_iterations": k,
+        "checkpoints": [{"iteration": i, "objective": float(v)} for i, v in checkpoints],
+        "cost_evaluations": dict(costs.evaluations),
         "outer_iterations_done": work,
         "backtracks": backtracks,
         "converged": converged,

@@ -52,7 +52,7 @@ class GradeSettings:
     checkpoint_every: int = 32         # M: exact simulation every M outer iterations
     max_outer_iterations: int = 256
     step: float = 1.0                  # s: step along -P^-1 grad
-    max_move_mm: float = 1.0           # trust region: no boundary vertex moves more per iteration
+    max_move_mm: float = 1.0           # trust region at s = 1: no boundary vertex moves more per iteration
     step_growth: float = 1.5
     max_step: float = 16.0
     min_step: float = 1e-4
@@ -243,8 +243,9 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
         d = -regs.apply_preconditioner(g)
         # The preconditioner fixes the direction's shape, not its scale: cap the move
         # so an inexact state far from equilibrium cannot throw the pattern away.
+        # The trust radius shrinks and grows with s, so backtracking really shortens steps.
         dmax = float(np.max(np.abs(d))) if d.size else 0.0
-        step = s if dmax == 0 else min(s, 1e-3 * settings.max_move_mm / dmax)
+        step = s if dmax == 0 else s * min(1.0, 1e-3 * settings.max_move_mm / dmax)
         theta = theta + step * d
         k += 1
         work += 1

@@ -261,7 +261,9 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
             else:
                 continue
         res = exact(theta, x, "checkpoint")
-        f, _ = prob.objective(res.x, theta)
+        f, f_terms = prob.objective(res.x, theta)
+        sim_state = {"converged": res.converged, "residual": res.residual,
+                     "max_sewing_gap_mm": res.max_sewing_gap_mm, "min_phi_mm": res.min_phi_mm, "terms": f_terms}
         if not (np.isfinite(f) and f <= ck_f):
             # Long-range backtracking: back to the last exact state, simulate more
             # accurately and take shorter steps.
@@ -272,7 +274,7 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
             S = min(2 * S, settings.max_inner_iterations)
             s *= 0.5
             hist_append(f, True)
-            tell(stage="optimize", iteration=k, objective=f, exact=True, backtrack=True)
+            tell(stage="optimize", iteration=k, objective=f, exact=True, backtrack=True, state=sim_state)
             if s < settings.min_step:
                 converged, message = True, "no further decrease at the smallest step"
                 break
@@ -282,7 +284,7 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
         checkpoints.append((k, f))
         x = res.x
         hist_append(f, True)
-        tell(stage="optimize", iteration=k, objective=f, exact=True)
+        tell(stage="optimize", iteration=k, objective=f, exact=True, state=sim_state)
         S = max(S // 2, settings.min_inner_iterations)
         s = min(s * settings.step_growth, settings.max_step)
         if decrease <= settings.rel_tol * abs(f):

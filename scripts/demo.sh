@@ -17,5 +17,5 @@ $sf grade "$pattern" \
     --base-body $samples/bodies/women_size06.obj \
     --target-body $samples/bodies/women_size10.obj \
     --truth $samples/patterns/gc_pencil_skirt/size10/pattern.json \
-    --edge-length 2 --max-iterations 64 --out "$out/grade"
+    --edge-length 3 --max-iterations 64 --out "$out/grade"
 echo "results in $out/grade: pattern.json pattern.svg garment.obj drape.png report.json"

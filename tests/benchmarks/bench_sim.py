@@ -77,14 +77,17 @@ def convergence(root: Path, edges: list[float], budget_s: float, tol: float) -> 
 
 
 def sweep(root: Path, budget_s: float, only: list[str] | None, bodies_only: list[str] | None,
-          pictures: list) -> list[dict]:
+          base_only: list[str] | None, pictures: list) -> list[dict]:
     index = json.loads((root / "patterns" / "index.json").read_text())
+    base = index.get("base_body", "size06")
     rows = []
     for garment, bodies in sorted(index["garments"].items()):
-        if only and garment not in only:
+        if (only or base_only) and garment not in (only or []) + (base_only or []):
             continue
         for body_id in sorted(bodies):
             if not body_path(root, body_id).exists() or (bodies_only and body_id not in bodies_only):
+                continue
+            if garment not in (only or []) and base_only and garment in base_only and body_id != base:
                 continue
             t = time.perf_counter()
             try:
@@ -181,6 +184,7 @@ def main() -> int:
     ap.add_argument("--sweep", type=Path, default=None, help="also drape every pattern under this data root")
     ap.add_argument("--sweep-only", nargs="*", default=None, help="garment ids for --sweep")
     ap.add_argument("--sweep-bodies", nargs="*", default=None, help="body ids for --sweep")
+    ap.add_argument("--sweep-base", nargs="*", default=None, help="garment ids for --sweep, on the base body only")
     ap.add_argument("--no-convergence", action="store_true")
     ap.add_argument("--out", type=Path, default=ROOT / "docs")
     args = ap.parse_args()
@@ -193,13 +197,15 @@ def main() -> int:
         conv = convergence(args.data, [2.0] if args.quick else [2.0, 1.0], 30.0 if args.quick else args.budget,
                            args.tolerance)
     pictures: list = []
-    sw = sweep(args.sweep, 60.0 if args.quick else 300.0, args.sweep_only, args.sweep_bodies,
+    sw = sweep(args.sweep, 60.0 if args.quick else 300.0, args.sweep_only, args.sweep_bodies, args.sweep_base,
                pictures) if args.sweep else []
     if conv and not args.no_convergence:
         plot(conv, args.out / "img" / "sim_convergence.png")
     if pictures:
         from seamfit.sim.render import render_front_grid
-        render_front_grid(args.out / "img" / "drapes.png", pictures)
+        # one picture per garment, on the base body
+        base = [item for item in pictures if item[0].endswith("/ size06")] or pictures
+        render_front_grid(args.out / "img" / "drapes.png", base)
     (args.out / "simulator_results.json").write_text(json.dumps(
         {"machine": machine, "convergence": [{k: v for k, v in r.items() if not k.startswith("history")} for r in conv],
          "sweep": sw}, indent=1))

@@ -358,3 +358,24 @@ def test_smooth_barrier_field_is_close_to_the_grid_and_c1():
         ga, gb = sim.force(a)[0], sim.force(b)[0]
         jump = np.abs(ga - gb).max() / np.abs(ga).max()
         assert (jump > 1e-3) == jumps, jump
+
+
+def test_sdf_is_used_in_place_and_kept_alive():
+    # A body's field is large: the core reads the caller's float32 grid in
+    # place (no copy) and keeps it alive as long as it needs it.
+    import gc
+    mesh = tube_case()
+    sdf = body_for(mesh)
+    values = np.array(sdf.values, dtype=np.float32, order="C")
+    sim = make(mesh, "barrier", None)
+    sim.set_sdf(values, sdf.origin, sdf.spacing)
+    x = perturbed(mesh, 0.01, seed=21)
+    phi0 = sim.sample_phi(x, False).copy()
+    values += np.float32(0.001)  # visible through the simulator: same memory
+    np.testing.assert_allclose(sim.sample_phi(x, False), phi0 + 0.001, atol=1e-6)
+    values -= np.float32(0.001)
+    del values
+    gc.collect()
+    np.testing.assert_allclose(sim.sample_phi(x, False), phi0, atol=1e-6)
+    with pytest.raises(TypeError):  # not float32: converted by the Python layer, refused by the core
+        sim.set_sdf(sdf.values.astype(np.float64), sdf.origin, sdf.spacing)

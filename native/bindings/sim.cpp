@@ -165,13 +165,15 @@ void bind_sim(py::module_& m) {
       .def_property("threads", &Simulator::threads, &Simulator::set_threads,
                     "OpenMP threads (set 0 for automatic: 1 below 3000 vertices)")
       .def("set_sdf",
-           [](Simulator& s, FArr values, DArr origin, double spacing) {
+           [](Simulator& s, py::array_t<float, py::array::c_style> values, DArr origin, double spacing) {
              if (values.ndim() != 3) throw SimError("SDF values must be a 3D array shaped (nz, ny, nx)");
              require_shape(origin, 3, 0, "SDF origin");
-             s.set_sdf(values.data(), int(values.shape(2)), int(values.shape(1)), int(values.shape(0)), origin.data(),
-                       spacing);
+             // No copy: the array is kept alive by the simulator (keep_alive below).
+             s.set_sdf_view(values.data(), int(values.shape(2)), int(values.shape(1)), int(values.shape(0)),
+                            origin.data(), spacing);
            },
-           py::arg("values"), py::arg("origin"), py::arg("spacing"))
+           py::arg("values"), py::arg("origin"), py::arg("spacing"), py::keep_alive<1, 2>(),
+           "Use a C-contiguous float32 (nz, ny, nx) grid in place (not copied; do not modify it)")
       .def("clear_sdf", &Simulator::clear_sdf)
       .def("set_pattern",
            [](Simulator& s, DArr p) {

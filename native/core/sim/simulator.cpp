@@ -212,12 +212,20 @@ void Simulator::build_hessian_pattern() {
 
 void Simulator::set_sdf(const float* values, int nx, int ny, int nz, const double origin[3], double spacing) {
   if (nx < 2 || ny < 2 || nz < 2) throw SimError("simulator: the SDF grid needs at least 2 nodes per axis");
+  sdf_values_.assign(values, values + size_t(nx) * ny * nz);
+  set_sdf_view(sdf_values_.data(), nx, ny, nz, origin, spacing);
+}
+
+void Simulator::set_sdf_view(const float* values, int nx, int ny, int nz, const double origin[3], double spacing) {
+  if (nx < 2 || ny < 2 || nz < 2) throw SimError("simulator: the SDF grid needs at least 2 nodes per axis");
   if (!(spacing > 0) || !std::isfinite(spacing)) throw SimError("simulator: the SDF spacing must be positive");
   const size_t count = size_t(nx) * ny * nz;
-  sdf_values_.assign(values, values + count);
-  for (size_t i = 0; i < count; ++i)
-    if (!std::isfinite(sdf_values_[i])) throw SimError("simulator: the SDF has non-finite values");
-  sdf_.values = sdf_values_.data();
+  bool finite = true;
+#pragma omp parallel for reduction(&& : finite) schedule(static) num_threads(threads_)
+  for (long long i = 0; i < (long long)count; ++i) finite = finite && std::isfinite(values[i]);
+  if (!finite) throw SimError("simulator: the SDF has non-finite values");
+  if (values != sdf_values_.data()) sdf_values_.clear();
+  sdf_.values = values;
   sdf_.nx = nx;
   sdf_.ny = ny;
   sdf_.nz = nz;

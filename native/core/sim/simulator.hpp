@@ -101,6 +101,9 @@ class Simulator {
 
   // --- configuration -------------------------------------------------------
   void set_sdf(const float* values, int nx, int ny, int nz, const double origin[3], double spacing);
+  // As set_sdf, without a copy: the caller keeps `values` alive and unchanged
+  // while the simulator uses it (a body's field is shared by its simulators).
+  void set_sdf_view(const float* values, int nx, int ny, int nz, const double origin[3], double spacing);
   void clear_sdf();
   bool has_sdf() const { return has_sdf_; }
   void set_params(const SimParams& params);  // everything but the topology
@@ -136,7 +139,9 @@ class Simulator {
   double force(const double* x, double* f, EnergyTerms* terms = nullptr);
   // Relative residual |f| / |m g0|.
   double residual(const double* f) const;
-  // Hessian d2E/dx2 (exact) or its PSD-projected variant, 3n x 3n.
+  // Hessian d2E/dx2 (exact) or its PSD-projected variant, 3n x 3n, column
+  // major, symmetric (both triangles stored). The reference is to a buffer
+  // owned by the simulator and overwritten by the next hessian() or Newton solve.
   const Eigen::SparseMatrix<double>& hessian(const double* x, bool psd);
   // (d2E/dx2) v, matrix-free.
   void hess_vec(const double* x, const double* v, double* out, bool psd);

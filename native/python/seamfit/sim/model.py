@@ -203,13 +203,16 @@ class Simulator:
         self._core.params = self._params(gravity_scale, sewing_scale)
 
     def set_body(self, sdf) -> None:
-        values = np.asarray(_field(sdf, "values"), dtype=np.float32)
+        # C-contiguous float32 is used in place by the core (a body's field is
+        # hundreds of MB); anything else is converted once here.
+        values = np.ascontiguousarray(_field(sdf, "values"), dtype=np.float32)
         origin = np.asarray(_field(sdf, "origin"), dtype=np.float64).reshape(3)
         spacing = float(_field(sdf, "spacing"))
         if values.ndim != 3:
             raise SolveError("SDF values must be a 3D array shaped (nz, ny, nx)")
         self.sdf = sdf
         self._core.set_sdf(values, origin, spacing)
+        self._sdf_values = values  # shared with the core, which reads it in place
 
     def set_pattern(self, p: np.ndarray) -> None:
         """New rest state p (N, 2), metres."""

@@ -24,6 +24,7 @@
 #include <limits>
 #include <string>
 
+#include "sim/jacobi_step.hpp"
 #include "sim/simulator.hpp"
 
 namespace seamfit::sim {
@@ -31,13 +32,6 @@ namespace seamfit::sim {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-// Vertices closer to the body than this (m) are projected out; anything above
-// is a legitimate barrier state (pressed contact settles at tiny gaps).
-constexpr double kProjectFloor = 1e-9;
-// A vertex step may always be this long (m), thinner than any body part, so a
-// bounded step cannot jump through the body between two outside states.
-constexpr double kFreeStep = 0.005;
 
 inline double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
@@ -86,7 +80,6 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   int rises = 0;        // consecutive energy rises
   double omega = 1.0;
   std::vector<double> upd_norm;  // |dx| during warm-up, for the rho estimate
-  const double beta = 0.5;       // a step may close at most this fraction of the gap
 
   int it = 0;
   for (;; ++it) {
@@ -132,15 +125,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
     double dn2 = 0;
 #pragma omp parallel for reduction(+ : dn2) schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
-      const Vec3 fv = {f[3 * v], f[3 * v + 1], f[3 * v + 2]};
-      Vec3 dv;
-      Sym3 Dv = D[v];
-      if (!sym3_solve_spd(Dv, fv, dv)) {
-        const double tr = std::fabs(Dv.xx) + std::fabs(Dv.yy) + std::fabs(Dv.zz);
-        Dv += sym3_identity(1e-6 * tr + 1e-12);
-        if (!sym3_solve_spd(Dv, fv, dv)) dv = make_vec3(0, 0, 0);
-      }
-      dv = alpha * dv;
+      const Vec3 dv = jacobi_direction(D[v], {f[3 * v], f[3 * v + 1], f[3 * v + 2]}, alpha);
       d[3 * v] = dv.x;
       d[3 * v + 1] = dv.y;
       d[3 * v + 2] = dv.z;
@@ -162,57 +147,22 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
     } else {
       omega = 4.0 / (4.0 - rho * rho * omega);
     }
-    // Chebyshev combination and the barrier-safe step: a vertex may close at
-    // most half its gap along the SDF normal, and never moves further than
-    // its gap or kFreeStep; a step that still lands too close (curved or
-    // creased body) slides back out to half the old gap, or is dropped for
-    // that vertex together with its momentum.
+    // Chebyshev combination and the barrier-safe step (sim/jacobi_step.hpp).
     int rejected = 0;
+    const bool smooth = params_.barrier_smooth;
 #pragma omp parallel for reduction(+ : rejected) schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
       const Vec3 xo = {xc[3 * v], xc[3 * v + 1], xc[3 * v + 2]};
-      Vec3 dv;
-      dv.x = omega * d[3 * v] + (omega - 1.0) * (xc[3 * v] - xp[3 * v]);
-      dv.y = omega * d[3 * v + 1] + (omega - 1.0) * (xc[3 * v + 1] - xp[3 * v + 1]);
-      dv.z = omega * d[3 * v + 2] + (omega - 1.0) * (xc[3 * v + 2] - xp[3 * v + 2]);
-      Vec3 xn = xo + dv;
-      if (bar) {
-        const SdfSample& s = S[v];
-        const double gn = norm(s.grad);
-        if (gn > 1e-12 && s.phi > 0) {
-          const Vec3 nrm = (1.0 / gn) * s.grad;
-          const double dn = dot(dv, nrm), lim = -beta * s.phi;
-          if (dn < lim) dv -= (dn - lim) * nrm;
-        }
-        const double len = norm(dv), cap = std::max(0.9 * s.phi, kFreeStep);
-        if (len > cap) dv = (cap / len) * dv;
-        xn = xo + dv;
-        SdfSample sn = sdf_at(xn);
-        // Sliding along the body: where the body curves away from the tangent
-        // plane (or creases), a step can close more than half the gap although
-        // its normal part may not; such a step is pushed back out along the
-        // field to its linear prediction phi + grad.dv (at least half the old
-        // gap), a few Newton steps on phi. Failing that the vertex stays.
-        // Steps that keep half the gap are left alone (pure descent).
-        const double want = std::max(s.phi + dot(s.grad, dv), 0.5 * s.phi);
-        for (int h = 0; h < 3 && sn.phi < 0.5 * s.phi && sn.phi < want; ++h) {
-          const double g2 = norm2(sn.grad);
-          if (!(g2 > 1e-12)) break;
-          xn += ((want - sn.phi) / g2) * sn.grad;
-          sn = sdf_at(xn);
-        }
-        if (sn.phi < 0.25 * s.phi || !(sn.phi > kProjectFloor) || norm(xn - xo) > 2.0 * std::max(len, 1e-300)) {
-          xn = xo;
-          sn = s;
-          ++rejected;
-        }
-        S[v] = sn;
-      }
-      const bool stay = bar && xn.x == xo.x && xn.y == xo.y && xn.z == xo.z;
-      // A dropped step also drops the vertex's momentum.
-      xp[3 * v] = stay ? xn.x : xo.x;
-      xp[3 * v + 1] = stay ? xn.y : xo.y;
-      xp[3 * v + 2] = stay ? xn.z : xo.z;
+      const Vec3 xo_prev = {xp[3 * v], xp[3 * v + 1], xp[3 * v + 2]};
+      const Vec3 dv = {d[3 * v], d[3 * v + 1], d[3 * v + 2]};
+      SdfSample s = bar ? S[v] : SdfSample{};
+      Vec3 xn;
+      if (chebyshev_safe_step(xo, xo_prev, dv, omega, bar, sdf_, smooth, s, xn)) ++rejected;
+      if (bar) S[v] = s;
+      // x_{k-1} becomes x_k (a dropped step thereby drops its momentum too).
+      xp[3 * v] = xo.x;
+      xp[3 * v + 1] = xo.y;
+      xp[3 * v + 2] = xo.z;
       xc[3 * v] = xn.x;
       xc[3 * v + 1] = xn.y;
       xc[3 * v + 2] = xn.z;

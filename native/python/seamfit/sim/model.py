@@ -14,7 +14,7 @@ from typing import Any, Callable, Optional
 import numpy as np
 
 from .._native import core
-from ..errors import SolveError
+from ..errors import DeviceError, SolveError
 
 # Spring stiffness of a regular triangle lattice with edge a and springs
 # Y/a: its plane-stress 2D Young's modulus is 2 Y / (sqrt(3) a), so a fabric of
@@ -78,6 +78,7 @@ class SimSettings:
     progress_every: int = 50
     history_every: int = 10
     threads: int = 0                   # OpenMP threads, 0 = automatic
+    device: str = "cpu"                # where solves run: "cpu" or "cuda" (Chebyshev only; docs/gpu.md)
     # Dressing stages (see Simulator.drape).
     sew_first: bool = True             # stage 1: close the seams with gravity off
     sew_stage_tolerance: float = 1e-2
@@ -96,6 +97,10 @@ class SimSettings:
             raise SolveError("barrier_distance must be > 0")
         if self.max_iterations < 0:
             raise SolveError("max_iterations must be >= 0")
+        if self.device not in ("cpu", "cuda"):
+            raise SolveError(f"unknown device {self.device!r} (cpu or cuda)")
+        if self.device == "cuda" and self.method != "chebyshev":
+            raise SolveError("the newton solver runs on the CPU only; use method chebyshev on device cuda")
 
 
 @dataclass
@@ -165,6 +170,7 @@ class Simulator:
         if self.x0 is not None and len(self.x0) != len(uv):
             raise SolveError(f"mesh x0 has {len(self.x0)} rows for {len(uv)} vertices")
         self._core = core().Simulator(self.p, tris, sew, core().SimParams())
+        self._gpu = None
         # Y from the tensile stiffness and the mean rest edge length (constant
         # afterwards, so d/dp does not see it).
         self.mean_edge = float(np.mean(self._core.rest_lengths))
@@ -274,6 +280,26 @@ class Simulator:
         return self._core.sewing_gaps(np.asarray(x, dtype=np.float64))
 
     # --------------------------------------------------------------- solving
+    def cuda(self):
+        """The GPU mirror of this simulator (seamfit.sim.cuda.CudaSimulator),
+        made on first use; raises DeviceError when no GPU can run it."""
+        if self._gpu is None:
+            from .cuda import CudaSimulator
+            self._gpu = CudaSimulator(self)
+        return self._gpu
+
+    def _run(self, x, st, progress, device=None):
+        """One core solve on the CPU or, for device "cuda", on the GPU mirror
+        (synchronized with the current parameters first)."""
+        dev = device or self.settings.device
+        if dev == "cpu":
+            return self._core.solve(x, st, progress)
+        if dev != "cuda":
+            raise DeviceError(f"unknown device {dev!r} (cpu or cuda)")
+        if st.method != 0:
+            raise SolveError("the newton solver runs on the CPU only; use method chebyshev on device cuda")
+        return self.cuda().solve(x, settings=st, progress=progress)
+
     def _settings(self, tolerance=None, max_iterations=None, method=None):
         s = self.settings
         st = core().SolveSettings()
@@ -293,17 +319,19 @@ class Simulator:
 
     def solve(self, x0=None, *, tolerance=None, max_iterations=None, method=None,
               progress: Optional[Callable[[int, float], bool]] = None,
-              gravity_scale: float = 1.0, sewing_scale: float = 1.0) -> DrapeResult:
-        """One quasistatic solve from x0 (default: the mesh's x0)."""
+              gravity_scale: float = 1.0, sewing_scale: float = 1.0, device: Optional[str] = None) -> DrapeResult:
+        """One quasistatic solve from x0 (default: the mesh's x0), on
+        `device` ("cpu" or "cuda"; default settings.device)."""
         x = self._start(x0)
         self._apply_params(gravity_scale, sewing_scale)
         try:
-            x, rep = self._core.solve(x, self._settings(tolerance, max_iterations, method), progress)
+            x, rep = self._run(x, self._settings(tolerance, max_iterations, method), progress, device)
         finally:
             self._apply_params()
         return self._result(x, [dict(rep, stage="solve")])
 
-    def drape(self, x0=None, progress: Optional[Callable[[int, float], bool]] = None) -> DrapeResult:
+    def drape(self, x0=None, progress: Optional[Callable[[int, float], bool]] = None,
+              device: Optional[str] = None) -> DrapeResult:
         """Dress the garment: close the seams with gravity off, then settle under gravity.
 
         Stage 1 ("sew", skipped when settings.sew_first is False or the mesh has no
@@ -311,7 +339,8 @@ class Simulator:
         the largest seam gap below settings.sew_stage_gap_mm; stage 2 ("settle")
         runs to settings.tolerance. progress(iteration, residual) is called every
         settings.progress_every iterations, counting over both stages; returning
-        False cancels (reported in the result, never raised).
+        False cancels (reported in the result, never raised). device: "cpu" or
+        "cuda" (default settings.device).
         """
         x = self._start(x0)
         stages = []
@@ -329,7 +358,7 @@ class Simulator:
                 while True:
                     chunk = min(2000, max(st.max_iterations - done, 0))
                     st_chunk = self._settings(tolerance=self.settings.sew_stage_tolerance, max_iterations=chunk)
-                    x, rep = self._core.solve(x, st_chunk, relay)
+                    x, rep = self._run(x, st_chunk, relay, device)
                     done += rep["iterations"]
                     offset[0] += rep["iterations"]
                     rep = dict(rep, stage="sew", iterations=done)
@@ -342,7 +371,7 @@ class Simulator:
                 self._apply_params()
             if rep["cancelled"]:
                 return self._result(x, stages)
-        x, rep = self._core.solve(x, self._settings(), relay)
+        x, rep = self._run(x, self._settings(), relay, device)
         stages.append(dict(rep, stage="settle"))
         return self._result(x, stages)
 

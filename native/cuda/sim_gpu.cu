@@ -1,0 +1,649 @@
+// CUDA backend of the quasistatic simulator (see sim_gpu.hpp).
+//
+// One iteration is three kernels: the step (block-Jacobi direction, Chebyshev
+// combination, barrier-safe step), the evaluation of the new state (force,
+// diagonal blocks, energy terms, per-block partial sums) and a one-block
+// control kernel that reduces the partial sums in a fixed order and runs the
+// solver's rules (energy checks, restarts, rho and omega, stopping). A batch
+// of iterations is one CUDA graph launch; the host reads the control state
+// once per batch. After a stop the remaining kernels of the batch return at
+// once. Per-vertex work is a gather over CSR incidence lists: no atomics, and
+// the sums are deterministic.
+#include <cuda_runtime.h>
+
+// Eigen (through simulator.hpp) marks defaulted members __host__ __device__.
+#pragma nv_diag_suppress 20012
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <type_traits>
+#include <vector>
+
+#include "sim_gpu.hpp"
+#include "sim_iteration.cuh"
+
+namespace seamfit::cuda {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+void check(cudaError_t e, const char* what) {
+  if (e != cudaSuccess) throw CudaError(std::string("CUDA error in ") + what + ": " + cudaGetErrorString(e));
+}
+#define SF_CUDA(call) check((call), #call)
+
+constexpr int kCtrlThreads = 256;
+
+// Owning device allocation.
+struct DevBuf {
+  void* p = nullptr;
+  size_t bytes = 0;
+  DevBuf() = default;
+  DevBuf(const DevBuf&) = delete;
+  DevBuf& operator=(const DevBuf&) = delete;
+  ~DevBuf() { release(); }
+  void release() {
+    if (p) cudaFree(p);
+    p = nullptr;
+    bytes = 0;
+  }
+  // Keeps the allocation when it is large enough; returns true if it moved.
+  bool reserve(size_t b) {
+    if (b <= bytes && p) return false;
+    release();
+    SF_CUDA(cudaMalloc(&p, std::max<size_t>(b, 16)));
+    bytes = std::max<size_t>(b, 16);
+    return true;
+  }
+  template <class T>
+  T* as() const { return static_cast<T*>(p); }
+};
+
+template <class T>
+void upload(DevBuf& b, const T* h, size_t count, cudaStream_t s) {
+  b.reserve(count * sizeof(T));
+  if (count) SF_CUDA(cudaMemcpyAsync(b.p, h, count * sizeof(T), cudaMemcpyHostToDevice, s));
+}
+
+// ------------------------------------------------------------------ kernels
+
+// Sum of Q values over the block, written to out[0..Q-1] by thread 0.
+template <int Q>
+__device__ void block_sum(double (&v)[Q], double* out) {
+  __shared__ double sh[Q][32];
+  const int lane = threadIdx.x & 31, w = threadIdx.x >> 5, nw = (blockDim.x + 31) >> 5;
+#pragma unroll
+  for (int q = 0; q < Q; ++q)
+    for (int o = 16; o > 0; o >>= 1) v[q] += __shfl_down_sync(0xffffffffu, v[q], o);
+  if (lane == 0)
+#pragma unroll
+    for (int q = 0; q < Q; ++q) sh[q][w] = v[q];
+  __syncthreads();
+  if (w == 0) {
+#pragma unroll
+    for (int q = 0; q < Q; ++q) {
+      double a = lane < nw ? sh[q][lane] : 0.0;
+      for (int o = 16; o > 0; o >>= 1) a += __shfl_down_sync(0xffffffffu, a, o);
+      if (lane == 0) out[q] = a;
+    }
+  }
+}
+
+// Force, diagonal blocks and energy shares at x; partial sums per block:
+// the six energy terms and |f|^2. c == nullptr: a plain evaluation.
+template <class R>
+__global__ void __launch_bounds__(256) k_eval(DevModel<R> m, const Ctrl* c, const double* __restrict__ x,
+                                               double* __restrict__ f, Sym3* __restrict__ D,
+                                               SdfSample* __restrict__ S, double* __restrict__ part) {
+  if (c && c->done) return;
+  const bool known = c && c->mode == kStep;  // the step sampled the field at x already
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  double acc[kTerms + 1];
+#pragma unroll
+  for (int q = 0; q <= kTerms; ++q) acc[q] = 0;
+  if (v < m.n) {
+    SdfSample s;
+    if (m.bar && known) s = S[v];
+    Vec3 fv;
+    Sym3 Dv;
+    eval_vertex(m, x, v, known, s, fv, Dv, acc);
+    if (m.bar && !known && S) S[v] = s;
+    store3(f, v, fv);
+    D[v] = Dv;
+    acc[kTerms] = norm2(fv);
+  }
+  block_sum<kTerms + 1>(acc, part + (kTerms + 1) * blockIdx.x);
+}
+
+// The step from cur (x_k) with prev (x_{k-1}); the new state goes to prev.
+// Restore modes copy the checkpoint into both. Partial sums: |dx|^2 and the
+// count of dropped vertex steps.
+template <class R>
+__global__ void __launch_bounds__(256) k_step(DevModel<R> m, const Ctrl* c, double* __restrict__ cur,
+                                               double* __restrict__ prev, double* __restrict__ ck,
+                                               const double* __restrict__ f, const Sym3* __restrict__ D,
+                                               SdfSample* __restrict__ S, double* __restrict__ part) {
+  if (c->done) return;
+  const int mode = c->mode;
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  double acc[2] = {0, 0};
+  if (v < m.n) {
+    if (mode == kRestore || mode == kFinalRestore) {
+      const Vec3 xk = load3(ck, v);
+      store3(cur, v, xk);
+      store3(prev, v, xk);
+    } else if (mode == kStep) {
+      const Vec3 xo = load3(cur, v);
+      if (c->save_ck) store3(ck, v, xo);
+      const Vec3 d = sim::jacobi_direction(D[v], load3(f, v), c->alpha);
+      acc[0] = norm2(d);
+      SdfSample s;
+      if (m.bar) s = S[v];
+      Vec3 xn;
+      if (sim::chebyshev_safe_step(xo, load3(prev, v), d, c->omega, m.bar != 0, m.sdf, m.smooth != 0, s, xn))
+        acc[1] = 1;
+      if (m.bar) S[v] = s;
+      store3(prev, v, xn);
+    }
+  }
+  block_sum<2>(acc, part + 2 * blockIdx.x);
+}
+
+__device__ unsigned long long global_ns() {
+  unsigned long long t;
+  asm volatile("mov.u64 %0, %%globaltimer;" : "=l"(t));
+  return t;
+}
+
+// Reduce the partial sums of an iteration (fixed order) into sums[kSums].
+__device__ void reduce_parts(const double* pe, const double* ps, int nb, double* sums) {
+  __shared__ double sh[kSums][kCtrlThreads];
+  const int t = threadIdx.x;
+  for (int q = 0; q < kSums; ++q) {
+    double a = 0;
+    if (q <= kTerms) {
+      for (int b = t; b < nb; b += kCtrlThreads) a += pe[(kTerms + 1) * b + q];
+    } else if (ps) {
+      for (int b = t; b < nb; b += kCtrlThreads) a += ps[2 * b + (q - kTerms - 1)];
+    }
+    sh[q][t] = a;
+  }
+  __syncthreads();
+  for (int w = kCtrlThreads / 2; w > 0; w >>= 1) {
+    if (t < w)
+      for (int q = 0; q < kSums; ++q) sh[q][t] += sh[q][t + w];
+    __syncthreads();
+  }
+  if (t == 0)
+    for (int q = 0; q < kSums; ++q) sums[q] = sh[q][0];
+}
+
+__global__ void __launch_bounds__(kCtrlThreads) k_ctrl(Ctrl* c, const double* pe, const double* ps, int nb,
+                                                      int new_cur, double* upd_norm, double* hist) {
+  if (c->done) return;
+  __shared__ double sums[kSums];
+  reduce_parts(pe, ps, nb, sums);
+  if (threadIdx.x == 0) {
+    const unsigned long long now = global_ns();
+    if (c->mode == kInit) c->t0_ns = now;
+    ctrl_update(*c, sums, new_cur, upd_norm, hist, 1e-9 * double(now - c->t0_ns));
+  }
+}
+
+__global__ void __launch_bounds__(kCtrlThreads) k_sums(const double* pe, int nb, double* out) {
+  __shared__ double sums[kSums];
+  reduce_parts(pe, nullptr, nb, sums);
+  if (threadIdx.x == 0)
+    for (int q = 0; q <= kTerms; ++q) out[q] = sums[q];
+}
+
+std::string fmt(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+}  // namespace
+
+// ------------------------------------------------------------------ state
+
+struct SimGpu::Impl {
+  const sim::Simulator* sim = nullptr;
+  GpuOptions opt;
+  int n = 0, nb = 0, n_springs = 0, nnz = 0, n_sew_inc = 0;
+  cudaStream_t stream = nullptr;
+  // Topology (fixed) and rest state (sync()).
+  DevBuf spring_v, vs_ptr, vs_idx, vw_ptr, vw_idx, nbr_ptr, nbr_idx, self_slot;
+  DevBuf rest_L, shirring, Q, mass, barrier_c, stick_k, stick_t, sdf_values;
+  uint64_t sdf_revision = ~uint64_t(0);
+  DevModel<double> m64;
+  DevModel<float> m32;
+  double weight_norm = 1;
+  bool bar = false;
+  sim::SimParams params;
+  // Iteration state.
+  DevBuf xbuf[2], ck, f, D, S, part_eval, part_step, ctrl, upd_norm, hist, sums;
+  Ctrl* snap = nullptr;  // pinned host copies of the control state
+  cudaGraphExec_t graph = nullptr;
+  bool graph_dirty = true;
+
+  ~Impl() {
+    if (graph) cudaGraphExecDestroy(graph);
+    if (snap) cudaFreeHost(snap);
+    if (stream) cudaStreamDestroy(stream);
+  }
+
+  template <class F>
+  void with_model(F&& fn) {
+    if (opt.float_rest) fn(m32);
+    else fn(m64);
+  }
+
+  template <class R>
+  void launch_eval(const DevModel<R>& m, const Ctrl* c, const double* x) {
+    k_eval<R><<<nb, opt.block, 0, stream>>>(m, c, x, f.as<double>(), D.as<Sym3>(), bar ? S.as<SdfSample>() : nullptr,
+                                            part_eval.as<double>());
+    SF_CUDA(cudaGetLastError());
+  }
+  template <class R>
+  void launch_step(const DevModel<R>& m, int p) {
+    k_step<R><<<nb, opt.block, 0, stream>>>(m, ctrl.as<Ctrl>(), xbuf[p].as<double>(), xbuf[1 - p].as<double>(),
+                                            ck.as<double>(), f.as<double>(), D.as<Sym3>(),
+                                            bar ? S.as<SdfSample>() : nullptr, part_step.as<double>());
+    SF_CUDA(cudaGetLastError());
+  }
+  void launch_ctrl(int new_cur) {
+    k_ctrl<<<1, kCtrlThreads, 0, stream>>>(ctrl.as<Ctrl>(), part_eval.as<double>(), part_step.as<double>(), nb,
+                                           new_cur, upd_norm.as<double>(), hist.as<double>());
+    SF_CUDA(cudaGetLastError());
+  }
+  // One iteration slot from the state in xbuf[p]; the new state lands in xbuf[1 - p].
+  void launch_slot(int p) {
+    with_model([&](auto& m) {
+      launch_step(m, p);
+      launch_eval(m, ctrl.as<Ctrl>(), xbuf[1 - p].as<double>());
+    });
+    launch_ctrl(1 - p);
+  }
+  void launch_batch() {
+    if (!opt.use_graph) {
+      for (int s = 0; s < opt.batch; ++s) launch_slot(s & 1);
+      return;
+    }
+    if (graph_dirty || !graph) {
+      if (graph) cudaGraphExecDestroy(graph);
+      graph = nullptr;
+      cudaGraph_t g;
+      SF_CUDA(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal));
+      for (int s = 0; s < opt.batch; ++s) launch_slot(s & 1);
+      SF_CUDA(cudaStreamEndCapture(stream, &g));
+      const cudaError_t e = cudaGraphInstantiate(&graph, g, 0);
+      cudaGraphDestroy(g);
+      check(e, "cudaGraphInstantiate");
+      graph_dirty = false;
+    }
+    SF_CUDA(cudaGraphLaunch(graph, stream));
+  }
+  Ctrl read_ctrl() {
+    SF_CUDA(cudaMemcpyAsync(snap, ctrl.p, sizeof(Ctrl), cudaMemcpyDeviceToHost, stream));
+    SF_CUDA(cudaStreamSynchronize(stream));
+    return *snap;
+  }
+};
+
+namespace {
+
+template <class R>
+void upload_rest(DevBuf& b, const double* h, size_t count, cudaStream_t s, std::vector<float>& tmp) {
+  if constexpr (std::is_same_v<R, double>) {
+    upload(b, h, count, s);
+  } else {
+    tmp.assign(h, h + count);  // rounds to nearest
+    upload(b, tmp.data(), count, s);
+    SF_CUDA(cudaStreamSynchronize(s));  // tmp is reused
+  }
+}
+
+template <class R>
+void fill_model(DevModel<R>& m, SimGpu::Impl& I) {
+  m.n = I.n;
+  m.spring_v = I.spring_v.as<int32_t>();
+  m.vs_ptr = I.vs_ptr.as<int32_t>();
+  m.vs_idx = I.vs_idx.as<int32_t>();
+  m.vw_ptr = I.vw_ptr.as<int32_t>();
+  m.vw_idx = I.vw_idx.as<int32_t>();
+  m.nbr_ptr = I.nbr_ptr.as<int32_t>();
+  m.nbr_idx = I.nbr_idx.as<int32_t>();
+  m.self_slot = I.self_slot.as<int32_t>();
+  m.rest_L = I.rest_L.as<R>();
+  m.shirring = I.shirring.as<R>();
+  m.Q = I.Q.as<R>();
+  m.mass = I.mass.as<R>();
+  m.barrier_c = I.barrier_c.as<R>();
+  m.stick_k = I.stick_k.as<double>();
+  m.stick_t = I.stick_t.as<double>();
+  const sim::SimParams& p = I.params;
+  m.Y = p.stretch_Y;
+  m.Ys = p.sewing_Y;
+  m.kb = p.bend_kb;
+  m.dhat = p.barrier_distance;
+  m.gv = p.gravity;
+  m.grav = p.density > 0 && norm2(p.gravity) > 0;
+  m.bar = I.bar;
+  m.smooth = p.barrier_smooth;
+}
+
+}  // namespace
+
+SimGpu::SimGpu(const sim::Simulator& s, const GpuOptions& opt) : opt_(opt), impl_(new Impl) {
+  Impl& I = *impl_;
+  int count = 0;
+  if (cudaGetDeviceCount(&count) != cudaSuccess || count == 0) {
+    cudaGetLastError();
+    throw CudaError("no CUDA GPU or driver is present on this machine");
+  }
+  if (opt.device < 0 || opt.device >= count)
+    throw CudaError("CUDA device " + std::to_string(opt.device) + " does not exist (" + std::to_string(count) +
+                    " present)");
+  if (opt.block < 32 || opt.block > 256 || opt.block % 32)
+    throw CudaError("block size must be a multiple of 32 in [32, 256]");
+  if (opt.batch < 2 || opt.batch % 2) throw CudaError("batch must be even and >= 2");
+  SF_CUDA(cudaSetDevice(opt.device));
+  I.sim = &s;
+  I.opt = opt;
+  SF_CUDA(cudaStreamCreateWithFlags(&I.stream, cudaStreamNonBlocking));
+  SF_CUDA(cudaMallocHost(&I.snap, sizeof(Ctrl)));
+  const sim::SimArrays a = s.arrays();
+  I.n = a.n;
+  I.nb = (a.n + opt.block - 1) / opt.block;
+  I.n_springs = a.n_springs;
+  I.nnz = a.nbr_ptr[a.n];
+  I.n_sew_inc = a.vw_ptr[a.n];
+  upload(I.spring_v, a.spring_v, 2 * size_t(a.n_springs), I.stream);
+  upload(I.vs_ptr, a.vs_ptr, size_t(a.n) + 1, I.stream);
+  upload(I.vs_idx, a.vs_idx, size_t(a.vs_ptr[a.n]), I.stream);
+  upload(I.vw_ptr, a.vw_ptr, size_t(a.n) + 1, I.stream);
+  upload(I.vw_idx, a.vw_idx, size_t(a.vw_ptr[a.n]), I.stream);
+  upload(I.nbr_ptr, a.nbr_ptr, size_t(a.n) + 1, I.stream);
+  upload(I.nbr_idx, a.nbr_idx, size_t(I.nnz), I.stream);
+  upload(I.self_slot, a.self_slot, size_t(a.n), I.stream);
+  const size_t n3 = 3 * size_t(a.n);
+  for (auto& b : I.xbuf) b.reserve(n3 * sizeof(double));
+  I.ck.reserve(n3 * sizeof(double));
+  I.f.reserve(n3 * sizeof(double));
+  I.D.reserve(size_t(a.n) * sizeof(Sym3));
+  I.part_eval.reserve(size_t(I.nb) * (kTerms + 1) * sizeof(double));
+  I.part_step.reserve(size_t(I.nb) * 2 * sizeof(double));
+  I.ctrl.reserve(sizeof(Ctrl));
+  I.sums.reserve(kSums * sizeof(double));
+  I.upd_norm.reserve(64 * sizeof(double));
+  I.hist.reserve(3 * 1024 * sizeof(double));
+  sync();
+}
+
+SimGpu::~SimGpu() = default;
+
+void SimGpu::sync() {
+  Impl& I = *impl_;
+  const sim::SimArrays a = I.sim->arrays();
+  if (a.n != I.n || a.n_springs != I.n_springs) throw CudaError("the simulator's topology changed under its GPU copy");
+  I.params = I.sim->params();
+  I.weight_norm = I.sim->weight_norm();
+  std::vector<float> tmp;
+  auto rest = [&](auto tag) {
+    using R = decltype(tag);
+    upload_rest<R>(I.rest_L, a.rest_L, size_t(a.n_springs), I.stream, tmp);
+    upload_rest<R>(I.shirring, a.shirring, size_t(a.n_springs), I.stream, tmp);
+    upload_rest<R>(I.Q, a.Q, size_t(I.nnz), I.stream, tmp);
+    upload_rest<R>(I.mass, a.mass, size_t(a.n), I.stream, tmp);
+    upload_rest<R>(I.barrier_c, a.barrier_c, size_t(a.n), I.stream, tmp);
+  };
+  if (opt_.float_rest) rest(float());
+  else rest(double());
+  upload(I.stick_k, a.stick_k, size_t(a.n), I.stream);
+  upload(I.stick_t, a.stick_t, 3 * size_t(a.n), I.stream);
+  if (a.sdf_revision != I.sdf_revision) {
+    if (a.has_sdf) upload(I.sdf_values, a.sdf.values, size_t(a.sdf.nx) * a.sdf.ny * a.sdf.nz, I.stream);
+    else I.sdf_values.release();
+    I.sdf_revision = a.sdf_revision;
+  }
+  I.bar = a.has_sdf && I.params.mu > 0;
+  if (I.bar) I.S.reserve(size_t(a.n) * sizeof(SdfSample));
+  SdfGridView g = a.sdf;
+  g.values = a.has_sdf ? I.sdf_values.as<float>() : nullptr;
+  fill_model(I.m64, I);
+  fill_model(I.m32, I);
+  I.m64.stick = I.m32.stick = a.any_sticking;
+  I.m64.sdf = I.m32.sdf = g;
+  SF_CUDA(cudaStreamSynchronize(I.stream));  // the host arrays may change after this returns
+  I.graph_dirty = true;  // the model is baked into the graph's kernel arguments
+}
+
+double SimGpu::force(const double* x, double* fout, sim::EnergyTerms* terms) {
+  Impl& I = *impl_;
+  const size_t n3 = 3 * size_t(I.n);
+  SF_CUDA(cudaMemcpyAsync(I.xbuf[0].p, x, n3 * sizeof(double), cudaMemcpyHostToDevice, I.stream));
+  I.with_model([&](auto& m) { I.launch_eval(m, nullptr, I.xbuf[0].as<double>()); });
+  k_sums<<<1, kCtrlThreads, 0, I.stream>>>(I.part_eval.as<double>(), I.nb, I.sums.as<double>());
+  SF_CUDA(cudaGetLastError());
+  double s[kTerms + 1];
+  SF_CUDA(cudaMemcpyAsync(s, I.sums.p, sizeof s, cudaMemcpyDeviceToHost, I.stream));
+  if (fout) SF_CUDA(cudaMemcpyAsync(fout, I.f.p, n3 * sizeof(double), cudaMemcpyDeviceToHost, I.stream));
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+  sim::EnergyTerms t;
+  t.stretch = s[kStretch];
+  t.sewing = s[kSewing];
+  t.bending = s[kBending];
+  t.gravity = s[kGravity];
+  t.sticking = s[kSticking];
+  t.barrier = s[kBarrier];
+  if (terms) *terms = t;
+  return t.total();
+}
+
+double SimGpu::energy(const double* x, sim::EnergyTerms* terms) { return force(x, nullptr, terms); }
+
+sim::SolveReport SimGpu::solve(double* x, const sim::SolveSettings& st, const sim::ProgressFn& progress,
+                               const std::atomic<bool>* cancel) {
+  Impl& I = *impl_;
+  const auto t0 = Clock::now();
+  const int n3 = 3 * I.n;
+  for (int i = 0; i < n3; ++i)
+    if (!std::isfinite(x[i]))
+      throw sim::SimError("simulator: start position of vertex " + std::to_string(i / 3) + " is not finite");
+  if (st.method != 0)
+    throw sim::SimError("the CUDA backend runs the Chebyshev solver (method 0); Newton runs on the CPU");
+  sim::SolveReport rep;
+  std::vector<double> xh(x, x + n3);
+  if (I.bar) rep.projections += I.sim->project_outside(xh.data(), sim::kProjectFloor, I.sim->projection_gap());
+
+  Ctrl c;
+  c.tol = st.tolerance;
+  c.weight_norm = I.weight_norm;
+  c.max_it = st.max_iterations;
+  c.warmup = std::max(st.warmup, 2);
+  c.check = std::max(st.check_every, 1);
+  c.history_every = st.history_every;
+  // The residual history keeps its first 2^17 entries (1.3M iterations at the default interval).
+  c.hist_cap = st.history_every > 0 ? std::min(st.max_iterations / st.history_every + 2, 1 << 17) : 0;
+  c.auto_rho = !(st.rho > 0);
+  c.rho = c.auto_rho ? 0.0 : std::min(st.rho, 0.99999);
+  c.alpha = std::min(std::max(st.alpha, 1e-3), 1.0);
+  c.mode = kInit;
+  // Buffers baked into the graph: growing them means capturing it again.
+  if (I.upd_norm.reserve(size_t(c.warmup) * sizeof(double))) I.graph_dirty = true;
+  if (I.hist.reserve(3 * size_t(std::max(c.hist_cap, 1)) * sizeof(double))) I.graph_dirty = true;
+  for (int b = 0; b < 2; ++b)
+    SF_CUDA(cudaMemcpyAsync(I.xbuf[b].p, xh.data(), n3 * sizeof(double), cudaMemcpyHostToDevice, I.stream));
+  SF_CUDA(cudaMemcpyAsync(I.ck.p, xh.data(), n3 * sizeof(double), cudaMemcpyHostToDevice, I.stream));
+  *I.snap = c;
+  SF_CUDA(cudaMemcpyAsync(I.ctrl.p, I.snap, sizeof(Ctrl), cudaMemcpyHostToDevice, I.stream));
+  // The start state: evaluate, then the top of iteration 0.
+  I.with_model([&](auto& m) { I.launch_eval(m, I.ctrl.as<Ctrl>(), I.xbuf[0].as<double>()); });
+  I.launch_ctrl(0);
+  c = I.read_ctrl();
+  const double t_start = seconds_since(t0);  // host time before the device clock started
+
+  bool cancelled = false, timed_out = false;
+  int last_progress = 0;
+  auto host_checks = [&](const Ctrl& cc) {
+    // The CPU solver's host-side rules, once per batch.
+    if (st.max_seconds > 0 && seconds_since(t0) > st.max_seconds) timed_out = true;
+    else if (cancel && cancel->load()) cancelled = true;
+    else if (progress && st.progress_every > 0 &&
+             (cc.it == 0 || cc.it / st.progress_every > last_progress / st.progress_every)) {
+      last_progress = cc.it;
+      if (!progress(cc.it, cc.res)) cancelled = true;
+    }
+  };
+  if (!c.done && c.mode == kStep) host_checks(c);
+  while (!c.done && !cancelled && !timed_out) {
+    I.launch_batch();
+    c = I.read_ctrl();
+    if (!c.done) host_checks(c);
+  }
+  // A stop between batches may fall right after an energy rise: finish the
+  // restore (the CPU solver restores within the same iteration).
+  for (int guard = 0; !c.done && c.mode != kStep && guard < 2; ++guard) {
+    I.launch_slot(c.cur);
+    c = I.read_ctrl();
+  }
+
+  SF_CUDA(cudaMemcpyAsync(x, I.xbuf[c.cur].p, n3 * sizeof(double), cudaMemcpyDeviceToHost, I.stream));
+  std::vector<double> hist(3 * size_t(c.hist_count));
+  if (c.hist_count)
+    SF_CUDA(cudaMemcpyAsync(hist.data(), I.hist.p, hist.size() * sizeof(double), cudaMemcpyDeviceToHost, I.stream));
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+  for (int h = 0; h < c.hist_count; ++h) {
+    rep.hist_iter.push_back(hist[3 * h]);
+    rep.hist_seconds.push_back(t_start + hist[3 * h + 1]);
+    rep.hist_residual.push_back(hist[3 * h + 2]);
+  }
+  rep.iterations = c.it;
+  rep.residual = c.res;
+  rep.energy = c.E;
+  rep.restarts = c.restarts;
+  rep.rejected_steps = c.rejected;
+  rep.final_rho = c.rho;
+  rep.final_alpha = c.alpha;
+  rep.seconds = seconds_since(t0);
+  const std::string its = std::to_string(c.it);
+  if (c.status == kConverged) {
+    rep.converged = true;
+    rep.message = "converged: relative residual " + fmt(c.res) + " <= " + fmt(st.tolerance) + " after " + its +
+                  " iterations";
+  } else if (c.status == kNonFinite) {
+    rep.message = "stopped: non-finite force at iteration " + its + "; returned the last good state";
+  } else if (c.status == kBudget) {
+    rep.message = "not converged: relative residual " + fmt(c.res) + " > " + fmt(st.tolerance) + " after " + its +
+                  " iterations (iteration budget)";
+  } else if (timed_out) {
+    rep.message = "not converged: relative residual " + fmt(c.res) + " > " + fmt(st.tolerance) + " after " +
+                  fmt(seconds_since(t0)) + " s (time budget)";
+  } else {
+    rep.cancelled = true;
+    rep.message = "cancelled at iteration " + its + " (relative residual " + fmt(c.res) + ")";
+  }
+  return rep;
+}
+
+KernelTimes SimGpu::time_kernels(const double* x, int reps) {
+  Impl& I = *impl_;
+  reps = std::max(reps, 2) & ~1;
+  const int n3 = 3 * I.n;
+  for (int b = 0; b < 2; ++b)
+    SF_CUDA(cudaMemcpyAsync(I.xbuf[b].p, x, n3 * sizeof(double), cudaMemcpyHostToDevice, I.stream));
+  SF_CUDA(cudaMemcpyAsync(I.ck.p, x, n3 * sizeof(double), cudaMemcpyHostToDevice, I.stream));
+  Ctrl c;
+  c.tol = 0;  // never converges
+  c.weight_norm = I.weight_norm;
+  c.max_it = 1 << 30;
+  c.check = 1 << 30;  // no energy checks: every slot is a step
+  c.warmup = 2;
+  c.mode = kInit;
+  I.upd_norm.reserve(2 * sizeof(double));
+  *I.snap = c;
+  SF_CUDA(cudaMemcpyAsync(I.ctrl.p, I.snap, sizeof(Ctrl), cudaMemcpyHostToDevice, I.stream));
+  I.with_model([&](auto& m) { I.launch_eval(m, I.ctrl.as<Ctrl>(), I.xbuf[0].as<double>()); });
+  I.launch_ctrl(0);
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+  I.graph_dirty = true;
+
+  cudaEvent_t e0, e1;
+  SF_CUDA(cudaEventCreate(&e0));
+  SF_CUDA(cudaEventCreate(&e1));
+  auto time_graph = [&](auto&& body) {
+    cudaGraph_t g;
+    cudaGraphExec_t ge;
+    SF_CUDA(cudaStreamBeginCapture(I.stream, cudaStreamCaptureModeThreadLocal));
+    for (int r = 0; r < reps; ++r) body(r);
+    SF_CUDA(cudaStreamEndCapture(I.stream, &g));
+    SF_CUDA(cudaGraphInstantiate(&ge, g, 0));
+    SF_CUDA(cudaGraphLaunch(ge, I.stream));  // warm-up
+    std::vector<float> ms;
+    for (int k = 0; k < 7; ++k) {
+      SF_CUDA(cudaEventRecord(e0, I.stream));
+      SF_CUDA(cudaGraphLaunch(ge, I.stream));
+      SF_CUDA(cudaEventRecord(e1, I.stream));
+      SF_CUDA(cudaEventSynchronize(e1));
+      float t = 0;
+      SF_CUDA(cudaEventElapsedTime(&t, e0, e1));
+      ms.push_back(t);
+    }
+    cudaGraphExecDestroy(ge);
+    cudaGraphDestroy(g);
+    std::sort(ms.begin(), ms.end());
+    return 1e3 * ms[ms.size() / 2] / reps;
+  };
+  KernelTimes kt;
+  // The evaluation reads the samples the start evaluation stored (as after a step).
+  I.with_model([&](auto& m) {
+    kt.eval_us = time_graph([&](int) { I.launch_eval(m, I.ctrl.as<Ctrl>(), I.xbuf[0].as<double>()); });
+  });
+  kt.ctrl_us = time_graph([&](int r) { I.launch_ctrl(r & 1); });
+  // Every slot is a step (no checks); parity alternates within the graph.
+  kt.slot_us = time_graph([&](int r) { I.launch_slot(r & 1); });
+  I.with_model([&](auto& m) { kt.step_us = time_graph([&](int r) { I.launch_step(m, r & 1); }); });
+  cudaEventDestroy(e0);
+  cudaEventDestroy(e1);
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+
+  // Unique bytes each kernel must move (every array once; the SDF grid, read
+  // through the cache at a few cells per vertex, not counted).
+  const double n = I.n, E = I.n_springs, nnz = I.nnz, K = I.n_sew_inc, r = I.opt.float_rest ? 4 : 8;
+  const double idx = 4;
+  const double topo = idx * (3 * (n + 1) + 2 * E + 2 * E + K + nnz + n);  // CSR pointers, vs, spring_v, vw, nbr, self
+  const double rest = r * (2 * E + nnz + 2 * n);
+  const double samples = I.bar ? 32 * n : 0;
+  kt.eval_bytes = topo + rest + 24 * n /*x*/ + samples + 24 * n /*f*/ + 48 * n /*D*/;
+  kt.step_bytes = 24 * n /*f*/ + 48 * n /*D*/ + 24 * n /*x_k*/ + 2 * 24 * n /*x_{k-1} read, x_{k+1} write*/ +
+                  2 * samples;
+  return kt;
+}
+
+const sim::Simulator& SimGpu::simulator() const { return *impl_->sim; }
+
+std::string SimGpu::device_name() const {
+  cudaDeviceProp p;
+  if (cudaGetDeviceProperties(&p, opt_.device) != cudaSuccess) return std::string();
+  return p.name;
+}
+
+size_t SimGpu::device_bytes() const {
+  const Impl& I = *impl_;
+  size_t s = 0;
+  for (const DevBuf* b : {&I.spring_v, &I.vs_ptr, &I.vs_idx, &I.vw_ptr, &I.vw_idx, &I.nbr_ptr, &I.nbr_idx,
+                          &I.self_slot, &I.rest_L, &I.shirring, &I.Q, &I.mass, &I.barrier_c, &I.stick_k, &I.stick_t,
+                          &I.sdf_values, &I.xbuf[0], &I.xbuf[1], &I.ck, &I.f, &I.D, &I.S, &I.part_eval,
+                          &I.part_step, &I.ctrl, &I.upd_norm, &I.hist, &I.sums})
+    s += b->bytes;
+  return s;
+}
+
+}  // namespace seamfit::cuda

@@ -5,7 +5,8 @@ present (seamfit._core.cuda_device_count() > 0). On the GPU the force and the
 energy terms equal the CPU's to 1e-12 relative (float64, same term functions,
 differing only in summation order and fused multiply-adds); a GPU solve stops
 with the CPU's verdicts, its residual re-evaluated on the CPU meets the
-tolerance, and its drape lies within 1 mm of the CPU's.
+tolerance, and its drape lies within 1 mm of the CPU's (the two differ by
+rounding only, which moves restarts by a few iterations).
 
 Real-garment meshes need gmsh; on machines without it, SEAMFIT_TEST_MESH_CACHE
 names a folder of meshes built elsewhere (written there when gmsh is present).
@@ -29,7 +30,7 @@ DEVICES = ["cpu"] + (["cuda"] if core().cuda_device_count() > 0 else [])
 GPU_DEVICES = [d for d in DEVICES if d != "cpu"]
 TERMS = ("stretch", "sewing", "bending", "gravity", "sticking", "barrier")
 SAMPLES = Path(__file__).resolve().parents[1] / "sample_files"
-REL = 1e-12  # float64 agreement of forces and energies, relative to their scale
+REL = 1e-12  # float64 agreement of forces and energies, relative to their scale (see below)
 
 
 def evaluator(sim, device, **options):
@@ -40,13 +41,36 @@ def evaluator(sim, device, **options):
     return CudaSimulator(sim, **options)
 
 
+def barrier_rounding(sim, x):
+    """Per vertex, what a rounding difference in phi does to the barrier
+    force: its stiffness c / phi^2 times the rounding bound of phi's 64-term
+    B-spline sum, 64 * 2^-53 * (|phi| + 4 h). It matters only for vertices
+    pressed to within nanometres of the body, where the solver may leave them
+    (the projection floor is 1e-9 m)."""
+    pr = sim.core.params
+    if not sim.core.has_sdf or pr.mu <= 0:
+        return np.zeros(len(x))
+    phi = sim.phi(x, barrier_field=True)
+    m = np.maximum(sim.masses, 1e-3 * sim.masses.mean())
+    c = pr.mu * pr.barrier_length * 9.81 * m
+    dphi = 64 * 2.0**-53 * (np.abs(phi) + 4 * float(sim.sdf.spacing))
+    return np.where(phi < pr.barrier_distance, c / phi**2 * dphi, 0.0)
+
+
 def assert_same_force_and_energy(sim, ev, x, rel=REL):
+    """Force to `rel` of the larger of its largest component and the spring
+    force scale Y (N): near equilibrium the net force is far smaller than the
+    spring forces it balances, and their rounding (the cancellation in
+    l - r L) scales with Y, not with the net force; plus, per vertex, the
+    barrier's amplification of rounding in phi. Energy terms to `rel` of the
+    sum of their magnitudes."""
     f_cpu = sim.force(x)
     f_dev = ev.force(x)
-    scale = np.abs(f_cpu).max()
+    scale = max(np.abs(f_cpu).max(), sim.core.params.stretch_Y)
     assert scale > 0
-    err = np.abs(f_dev - f_cpu).max() / scale
-    assert err <= rel, f"force differs by {err:.3g} of its largest component"
+    excess = np.abs(f_dev - f_cpu) - barrier_rounding(sim, x)[:, None]
+    err = max(excess.max(), 0.0) / scale
+    assert err <= rel, f"force differs by {err:.3g} of its scale {scale:.3g} N"
     e_cpu, t_cpu = sim.energy(x)
     e_dev, t_dev = ev.energy(x)
     escale = sum(abs(v) for v in t_cpu.values())

@@ -95,16 +95,19 @@ void bind_cuda_sim(py::module_& m) {
 
   py::class_<SimGpu>(m, "CudaSimulator",
                      "GPU mirror of a Simulator: force, energy and the Chebyshev solve on a CUDA device.")
-      .def(py::init([](const Simulator& s, int device, int block, int batch, bool use_graph, bool float_rest) {
+      .def(py::init([](const Simulator& s, int device, int block, int lanes, int batch, bool use_graph,
+                       bool float_rest) {
              GpuOptions o;
              o.device = device;
              o.block = block;
+             o.lanes = lanes;
              o.batch = batch;
              o.use_graph = use_graph;
              o.float_rest = float_rest;
              return new SimGpu(s, o);
            }),
-           py::arg("simulator"), py::arg("device") = 0, py::arg("block") = 128, py::arg("batch") = 32,
+           py::arg("simulator"), py::arg("device") = 0, py::arg("block") = 128, py::arg("lanes") = 0,
+           py::arg("batch") = 32,
            py::arg("use_graph") = true, py::arg("float_rest") = false,
            py::keep_alive<1, 2>())  // the CPU simulator must outlive its GPU copy
       .def("sync", &SimGpu::sync,
@@ -113,6 +116,7 @@ void bind_cuda_sim(py::module_& m) {
       .def_property_readonly("device_bytes", &SimGpu::device_bytes)
       .def_property_readonly("float_rest", [](const SimGpu& g) { return g.options().float_rest; })
       .def_property_readonly("batch", [](const SimGpu& g) { return g.options().batch; })
+      .def_property_readonly("lanes", &SimGpu::lanes, "threads per vertex in the force evaluation")
       .def("energy",
            [](SimGpu& g, DArr x) {
              require_x(g, x);
@@ -190,7 +194,6 @@ void bind_cuda_sim(py::module_& m) {
              py::dict d;
              d["eval_us"] = t.eval_us;
              d["step_us"] = t.step_us;
-             d["ctrl_us"] = t.ctrl_us;
              d["slot_us"] = t.slot_us;
              d["eval_bytes"] = t.eval_bytes;
              d["step_bytes"] = t.step_bytes;

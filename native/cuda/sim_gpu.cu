@@ -93,35 +93,132 @@ __device__ void block_sum(double (&v)[Q], double* out) {
   }
 }
 
-// Force, diagonal blocks and energy shares at x; partial sums per block:
-// the six energy terms and |f|^2. c == nullptr: a plain evaluation.
-template <class R>
-__global__ void __launch_bounds__(256) k_eval(DevModel<R> m, const Ctrl* c, const double* __restrict__ x,
-                                               double* __restrict__ f, Sym3* __restrict__ D,
-                                               SdfSample* __restrict__ S, double* __restrict__ part) {
+__device__ unsigned long long global_ns() {
+  unsigned long long t;
+  asm volatile("mov.u64 %0, %%globaltimer;" : "=l"(t));
+  return t;
+}
+
+// Reduce the partial sums of an iteration into sums[kSums] with all threads of
+// the block (a power of two, at most kCtrlThreads), in a fixed order, so the
+// result does not depend on which block runs it. ps may be null (no step).
+__device__ void reduce_parts(const double* pe, int nbe, const double* ps, int nbs, double* sums) {
+  __shared__ double sh[kSums][kCtrlThreads];
+  const int t = threadIdx.x, nt = blockDim.x;
+  for (int q = 0; q < kSums; ++q) {
+    double a = 0;
+    // __ldcg: other blocks wrote these; read them from L2, never a stale L1 line.
+    if (q <= kTerms) {
+      for (int b = t; b < nbe; b += nt) a += __ldcg(pe + (kTerms + 1) * b + q);
+    } else if (ps) {
+      for (int b = t; b < nbs; b += nt) a += __ldcg(ps + 2 * b + (q - kTerms - 1));
+    }
+    sh[q][t] = a;
+  }
+  __syncthreads();
+  for (int w = nt / 2; w > 0; w >>= 1) {
+    if (t < w)
+      for (int q = 0; q < kSums; ++q) sh[q][t] += sh[q][t + w];
+    __syncthreads();
+  }
+  if (t == 0)
+    for (int q = 0; q < kSums; ++q) sums[q] = sh[q][0];
+}
+
+// Everything the evaluation kernel of a solve needs besides the model.
+struct EvalArgs {
+  Ctrl* c = nullptr;            // null: a plain evaluation (k_sums reduces)
+  const double* x = nullptr;
+  double* f = nullptr;
+  Sym3* D = nullptr;
+  SdfSample* S = nullptr;
+  double* part_eval = nullptr;  // per block: six energy terms and |f|^2
+  const double* part_step = nullptr;
+  int nb_step = 0;
+  unsigned int* arrivals = nullptr;  // blocks done with this evaluation
+  double* upd_norm = nullptr;
+  double* hist = nullptr;
+  int new_cur = 0;              // the buffer that holds x
+};
+
+// Force, diagonal blocks and energy shares at x, L threads per vertex (more
+// threads in flight, shorter dependent chains per thread); per-block partial
+// sums. Sample: sample the barrier field here (plain evaluations); in a solve
+// the step kernel has sampled it at x already, and this kernel, free of the
+// sampling code, needs far fewer registers. In a solve, the last block to
+// finish reduces every block's sums and runs the solver's control step, which
+// saves a kernel launch per iteration.
+template <class R, int L, bool Sample>
+__global__ void __launch_bounds__(256) k_eval(DevModel<R> m, EvalArgs a) {
+  Ctrl* c = a.c;
   if (c && c->done) return;
-  const bool known = c && c->mode == kStep;  // the step sampled the field at x already
-  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  constexpr bool known = !Sample;
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  const int v = t / L, lane = t % L;
+  const bool active = v < m.n;
+  Vec3 g = make_vec3(0, 0, 0);
+  Sym3 Dv = sim::sym3_zero();
+  double e[kTerms] = {0, 0, 0, 0, 0, 0};
+  SdfSample s;
+  s.phi = 0;
+  s.grad = make_vec3(0, 0, 0);
+  if (active) {
+    if (m.bar && known && lane == 0) s = a.S[v];
+    eval_vertex_part(m, a.x, v, lane, L, known, s, g, Dv, e);
+  }
+  // Sum the lanes of a vertex (a butterfly: every lane ends with the total).
+#pragma unroll
+  for (int o = 1; o < L; o <<= 1) {
+    g.x += __shfl_xor_sync(0xffffffffu, g.x, o);
+    g.y += __shfl_xor_sync(0xffffffffu, g.y, o);
+    g.z += __shfl_xor_sync(0xffffffffu, g.z, o);
+    Dv.xx += __shfl_xor_sync(0xffffffffu, Dv.xx, o);
+    Dv.yy += __shfl_xor_sync(0xffffffffu, Dv.yy, o);
+    Dv.zz += __shfl_xor_sync(0xffffffffu, Dv.zz, o);
+    Dv.xy += __shfl_xor_sync(0xffffffffu, Dv.xy, o);
+    Dv.xz += __shfl_xor_sync(0xffffffffu, Dv.xz, o);
+    Dv.yz += __shfl_xor_sync(0xffffffffu, Dv.yz, o);
+#pragma unroll
+    for (int q = 0; q < kTerms; ++q) e[q] += __shfl_xor_sync(0xffffffffu, e[q], o);
+  }
   double acc[kTerms + 1];
 #pragma unroll
   for (int q = 0; q <= kTerms; ++q) acc[q] = 0;
-  if (v < m.n) {
-    SdfSample s;
-    if (m.bar && known) s = S[v];
-    Vec3 fv;
-    Sym3 Dv;
-    eval_vertex(m, x, v, known, s, fv, Dv, acc);
-    if (m.bar && !known && S) S[v] = s;
-    store3(f, v, fv);
-    D[v] = Dv;
+  if (active && lane == 0) {
+    const Vec3 fv = -g;
+    if (Sample && m.bar && a.S) a.S[v] = s;
+    store3(a.f, v, fv);
+    a.D[v] = Dv;
+#pragma unroll
+    for (int q = 0; q < kTerms; ++q) acc[q] = e[q];
     acc[kTerms] = norm2(fv);
   }
-  block_sum<kTerms + 1>(acc, part + (kTerms + 1) * blockIdx.x);
+  block_sum<kTerms + 1>(acc, a.part_eval + (kTerms + 1) * blockIdx.x);
+  if (!c) return;
+  __shared__ bool last;
+  if (threadIdx.x == 0) {
+    __threadfence();  // this block's sums before its arrival
+    last = atomicAdd(a.arrivals, 1u) == gridDim.x - 1;
+  }
+  __syncthreads();
+  if (!last) return;
+  __threadfence();
+  __shared__ double sums[kSums];
+  reduce_parts(a.part_eval, gridDim.x, a.part_step, a.nb_step, sums);
+  if (threadIdx.x == 0) {
+    Ctrl cc = *c;  // one load and one store of the control state, not one per field
+    const unsigned long long now = global_ns();
+    if (cc.mode == kInit) cc.t0_ns = now;
+    ctrl_update(cc, sums, a.new_cur, a.upd_norm, a.hist, 1e-9 * double(now - cc.t0_ns));
+    *c = cc;
+    *a.arrivals = 0;
+  }
 }
 
 // The step from cur (x_k) with prev (x_{k-1}); the new state goes to prev.
-// Restore modes copy the checkpoint into both. Partial sums: |dx|^2 and the
-// count of dropped vertex steps.
+// Restore modes copy the checkpoint into both; they and the start (kInit)
+// sample the barrier field at the state the evaluation reads next (prev).
+// Partial sums: |dx|^2 and the count of dropped vertex steps.
 template <class R>
 __global__ void __launch_bounds__(256) k_step(DevModel<R> m, const Ctrl* c, double* __restrict__ cur,
                                                double* __restrict__ prev, double* __restrict__ ck,
@@ -136,6 +233,9 @@ __global__ void __launch_bounds__(256) k_step(DevModel<R> m, const Ctrl* c, doub
       const Vec3 xk = load3(ck, v);
       store3(cur, v, xk);
       store3(prev, v, xk);
+      if (m.bar) S[v] = sim::barrier_field(m.sdf, m.smooth != 0, xk);
+    } else if (mode == kInit) {
+      if (m.bar) S[v] = sim::barrier_field(m.sdf, m.smooth != 0, load3(prev, v));
     } else if (mode == kStep) {
       const Vec3 xo = load3(cur, v);
       if (c->save_ck) store3(ck, v, xo);
@@ -153,50 +253,9 @@ __global__ void __launch_bounds__(256) k_step(DevModel<R> m, const Ctrl* c, doub
   block_sum<2>(acc, part + 2 * blockIdx.x);
 }
 
-__device__ unsigned long long global_ns() {
-  unsigned long long t;
-  asm volatile("mov.u64 %0, %%globaltimer;" : "=l"(t));
-  return t;
-}
-
-// Reduce the partial sums of an iteration (fixed order) into sums[kSums].
-__device__ void reduce_parts(const double* pe, const double* ps, int nb, double* sums) {
-  __shared__ double sh[kSums][kCtrlThreads];
-  const int t = threadIdx.x;
-  for (int q = 0; q < kSums; ++q) {
-    double a = 0;
-    if (q <= kTerms) {
-      for (int b = t; b < nb; b += kCtrlThreads) a += pe[(kTerms + 1) * b + q];
-    } else if (ps) {
-      for (int b = t; b < nb; b += kCtrlThreads) a += ps[2 * b + (q - kTerms - 1)];
-    }
-    sh[q][t] = a;
-  }
-  __syncthreads();
-  for (int w = kCtrlThreads / 2; w > 0; w >>= 1) {
-    if (t < w)
-      for (int q = 0; q < kSums; ++q) sh[q][t] += sh[q][t + w];
-    __syncthreads();
-  }
-  if (t == 0)
-    for (int q = 0; q < kSums; ++q) sums[q] = sh[q][0];
-}
-
-__global__ void __launch_bounds__(kCtrlThreads) k_ctrl(Ctrl* c, const double* pe, const double* ps, int nb,
-                                                      int new_cur, double* upd_norm, double* hist) {
-  if (c->done) return;
-  __shared__ double sums[kSums];
-  reduce_parts(pe, ps, nb, sums);
-  if (threadIdx.x == 0) {
-    const unsigned long long now = global_ns();
-    if (c->mode == kInit) c->t0_ns = now;
-    ctrl_update(*c, sums, new_cur, upd_norm, hist, 1e-9 * double(now - c->t0_ns));
-  }
-}
-
 __global__ void __launch_bounds__(kCtrlThreads) k_sums(const double* pe, int nb, double* out) {
   __shared__ double sums[kSums];
-  reduce_parts(pe, nullptr, nb, sums);
+  reduce_parts(pe, nb, nullptr, 0, sums);
   if (threadIdx.x == 0)
     for (int q = 0; q <= kTerms; ++q) out[q] = sums[q];
 }
@@ -216,7 +275,8 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 struct SimGpu::Impl {
   const sim::Simulator* sim = nullptr;
   GpuOptions opt;
-  int n = 0, nb = 0, n_springs = 0, nnz = 0, n_sew_inc = 0;
+  int n = 0, nb_step = 0, n_springs = 0, nnz = 0, n_sew_inc = 0;
+  int lanes = 1;             // threads per vertex in the evaluation (opt.lanes, or chosen)
   cudaStream_t stream = nullptr;
   // Topology (fixed) and rest state (sync()).
   DevBuf spring_v, vs_ptr, vs_idx, vw_ptr, vw_idx, nbr_ptr, nbr_idx, self_slot;
@@ -228,7 +288,7 @@ struct SimGpu::Impl {
   bool bar = false;
   sim::SimParams params;
   // Iteration state.
-  DevBuf xbuf[2], ck, f, D, S, part_eval, part_step, ctrl, upd_norm, hist, sums;
+  DevBuf xbuf[2], ck, f, D, S, part_eval, part_step, ctrl, upd_norm, hist, sums, arrivals;
   Ctrl* snap = nullptr;  // pinned host copies of the control state
   cudaGraphExec_t graph = nullptr;
   bool graph_dirty = true;
@@ -245,31 +305,51 @@ struct SimGpu::Impl {
     else fn(m64);
   }
 
-  template <class R>
-  void launch_eval(const DevModel<R>& m, const Ctrl* c, const double* x) {
-    k_eval<R><<<nb, opt.block, 0, stream>>>(m, c, x, f.as<double>(), D.as<Sym3>(), bar ? S.as<SdfSample>() : nullptr,
-                                            part_eval.as<double>());
+  // c == null: a plain evaluation of x (then k_sums reduces); otherwise a
+  // solve's evaluation of the state in xbuf[new_cur], with its control step.
+  template <class R, int L>
+  void launch_eval_l(const DevModel<R>& m, Ctrl* c, int new_cur, const double* x) {
+    EvalArgs a;
+    a.c = c;
+    a.x = x;
+    a.f = f.as<double>();
+    a.D = D.as<Sym3>();
+    a.S = bar ? S.as<SdfSample>() : nullptr;
+    a.part_eval = part_eval.as<double>();
+    a.part_step = part_step.as<double>();
+    a.nb_step = nb_step;
+    a.arrivals = arrivals.as<unsigned int>();
+    a.upd_norm = upd_norm.as<double>();
+    a.hist = hist.as<double>();
+    a.new_cur = new_cur;
+    const int nb = int((int64_t(n) * L + opt.block - 1) / opt.block);
+    if (c) k_eval<R, L, false><<<nb, opt.block, 0, stream>>>(m, a);
+    else k_eval<R, L, true><<<nb, opt.block, 0, stream>>>(m, a);
     SF_CUDA(cudaGetLastError());
+  }
+  template <class R>
+  void launch_eval(const DevModel<R>& m, Ctrl* c, int new_cur) {
+    const double* x = xbuf[new_cur].as<double>();
+    switch (lanes) {
+      case 1: launch_eval_l<R, 1>(m, c, new_cur, x); break;
+      case 2: launch_eval_l<R, 2>(m, c, new_cur, x); break;
+      case 8: launch_eval_l<R, 8>(m, c, new_cur, x); break;
+      default: launch_eval_l<R, 4>(m, c, new_cur, x); break;
+    }
   }
   template <class R>
   void launch_step(const DevModel<R>& m, int p) {
-    k_step<R><<<nb, opt.block, 0, stream>>>(m, ctrl.as<Ctrl>(), xbuf[p].as<double>(), xbuf[1 - p].as<double>(),
-                                            ck.as<double>(), f.as<double>(), D.as<Sym3>(),
-                                            bar ? S.as<SdfSample>() : nullptr, part_step.as<double>());
-    SF_CUDA(cudaGetLastError());
-  }
-  void launch_ctrl(int new_cur) {
-    k_ctrl<<<1, kCtrlThreads, 0, stream>>>(ctrl.as<Ctrl>(), part_eval.as<double>(), part_step.as<double>(), nb,
-                                           new_cur, upd_norm.as<double>(), hist.as<double>());
+    k_step<R><<<nb_step, opt.block, 0, stream>>>(m, ctrl.as<Ctrl>(), xbuf[p].as<double>(), xbuf[1 - p].as<double>(),
+                                                 ck.as<double>(), f.as<double>(), D.as<Sym3>(),
+                                                 bar ? S.as<SdfSample>() : nullptr, part_step.as<double>());
     SF_CUDA(cudaGetLastError());
   }
   // One iteration slot from the state in xbuf[p]; the new state lands in xbuf[1 - p].
   void launch_slot(int p) {
     with_model([&](auto& m) {
       launch_step(m, p);
-      launch_eval(m, ctrl.as<Ctrl>(), xbuf[1 - p].as<double>());
+      launch_eval(m, ctrl.as<Ctrl>(), 1 - p);
     });
-    launch_ctrl(1 - p);
   }
   void launch_batch() {
     if (!opt.use_graph) {
@@ -289,6 +369,32 @@ struct SimGpu::Impl {
       graph_dirty = false;
     }
     SF_CUDA(cudaGraphLaunch(graph, stream));
+  }
+  // The most lanes per vertex that still fit the evaluation in one wave of
+  // resident blocks: the kernel is latency bound, so more threads in flight
+  // help only while they all run at once.
+  int auto_lanes() {
+    int dev = 0, sms = 0;
+    SF_CUDA(cudaGetDevice(&dev));
+    SF_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
+    int best = 1;
+    for (int L : {2, 4, 8}) {
+      int per_sm = 0;
+      cudaError_t e = cudaSuccess;
+      if (opt.float_rest) {
+        e = L == 2 ? cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_eval<float, 2, false>, opt.block, 0)
+          : L == 4 ? cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_eval<float, 4, false>, opt.block, 0)
+                   : cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_eval<float, 8, false>, opt.block, 0);
+      } else {
+        e = L == 2 ? cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_eval<double, 2, false>, opt.block, 0)
+          : L == 4 ? cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_eval<double, 4, false>, opt.block, 0)
+                   : cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_eval<double, 8, false>, opt.block, 0);
+      }
+      check(e, "cudaOccupancyMaxActiveBlocksPerMultiprocessor");
+      const int64_t blocks = (int64_t(n) * L + opt.block - 1) / opt.block;
+      if (blocks <= int64_t(per_sm) * sms) best = L;
+    }
+    return best;
   }
   Ctrl read_ctrl() {
     SF_CUDA(cudaMemcpyAsync(snap, ctrl.p, sizeof(Ctrl), cudaMemcpyDeviceToHost, stream));
@@ -351,8 +457,10 @@ SimGpu::SimGpu(const sim::Simulator& s, const GpuOptions& opt) : opt_(opt), impl
   if (opt.device < 0 || opt.device >= count)
     throw CudaError("CUDA device " + std::to_string(opt.device) + " does not exist (" + std::to_string(count) +
                     " present)");
-  if (opt.block < 32 || opt.block > 256 || opt.block % 32)
-    throw CudaError("block size must be a multiple of 32 in [32, 256]");
+  if (opt.block != 32 && opt.block != 64 && opt.block != 128 && opt.block != 256)
+    throw CudaError("block size must be 32, 64, 128 or 256");
+  if (opt.lanes != 0 && opt.lanes != 1 && opt.lanes != 2 && opt.lanes != 4 && opt.lanes != 8)
+    throw CudaError("lanes per vertex must be 0 (automatic), 1, 2, 4 or 8");
   if (opt.batch < 2 || opt.batch % 2) throw CudaError("batch must be even and >= 2");
   SF_CUDA(cudaSetDevice(opt.device));
   I.sim = &s;
@@ -361,7 +469,9 @@ SimGpu::SimGpu(const sim::Simulator& s, const GpuOptions& opt) : opt_(opt), impl
   SF_CUDA(cudaMallocHost(&I.snap, sizeof(Ctrl)));
   const sim::SimArrays a = s.arrays();
   I.n = a.n;
-  I.nb = (a.n + opt.block - 1) / opt.block;
+  I.nb_step = (a.n + opt.block - 1) / opt.block;
+  I.lanes = opt.lanes > 0 ? opt.lanes : I.auto_lanes();
+  const int nb_eval = int((int64_t(a.n) * 8 + opt.block - 1) / opt.block);  // the most lanes allow
   I.n_springs = a.n_springs;
   I.nnz = a.nbr_ptr[a.n];
   I.n_sew_inc = a.vw_ptr[a.n];
@@ -378,8 +488,10 @@ SimGpu::SimGpu(const sim::Simulator& s, const GpuOptions& opt) : opt_(opt), impl
   I.ck.reserve(n3 * sizeof(double));
   I.f.reserve(n3 * sizeof(double));
   I.D.reserve(size_t(a.n) * sizeof(Sym3));
-  I.part_eval.reserve(size_t(I.nb) * (kTerms + 1) * sizeof(double));
-  I.part_step.reserve(size_t(I.nb) * 2 * sizeof(double));
+  I.part_eval.reserve(size_t(nb_eval) * (kTerms + 1) * sizeof(double));
+  I.part_step.reserve(size_t(I.nb_step) * 2 * sizeof(double));
+  I.arrivals.reserve(sizeof(unsigned int));
+  SF_CUDA(cudaMemsetAsync(I.arrivals.p, 0, sizeof(unsigned int), I.stream));
   I.ctrl.reserve(sizeof(Ctrl));
   I.sums.reserve(kSums * sizeof(double));
   I.upd_norm.reserve(64 * sizeof(double));
@@ -429,8 +541,9 @@ double SimGpu::force(const double* x, double* fout, sim::EnergyTerms* terms) {
   Impl& I = *impl_;
   const size_t n3 = 3 * size_t(I.n);
   SF_CUDA(cudaMemcpyAsync(I.xbuf[0].p, x, n3 * sizeof(double), cudaMemcpyHostToDevice, I.stream));
-  I.with_model([&](auto& m) { I.launch_eval(m, nullptr, I.xbuf[0].as<double>()); });
-  k_sums<<<1, kCtrlThreads, 0, I.stream>>>(I.part_eval.as<double>(), I.nb, I.sums.as<double>());
+  I.with_model([&](auto& m) { I.launch_eval(m, nullptr, 0); });
+  const int nb_eval = int((int64_t(I.n) * I.lanes + opt_.block - 1) / opt_.block);
+  k_sums<<<1, kCtrlThreads, 0, I.stream>>>(I.part_eval.as<double>(), nb_eval, I.sums.as<double>());
   SF_CUDA(cudaGetLastError());
   double s[kTerms + 1];
   SF_CUDA(cudaMemcpyAsync(s, I.sums.p, sizeof s, cudaMemcpyDeviceToHost, I.stream));
@@ -485,8 +598,10 @@ sim::SolveReport SimGpu::solve(double* x, const sim::SolveSettings& st, const si
   *I.snap = c;
   SF_CUDA(cudaMemcpyAsync(I.ctrl.p, I.snap, sizeof(Ctrl), cudaMemcpyHostToDevice, I.stream));
   // The start state: evaluate, then the top of iteration 0.
-  I.with_model([&](auto& m) { I.launch_eval(m, I.ctrl.as<Ctrl>(), I.xbuf[0].as<double>()); });
-  I.launch_ctrl(0);
+  I.with_model([&](auto& m) {
+    I.launch_step(m, 1);  // kInit: samples the field at xbuf[0]
+    I.launch_eval(m, I.ctrl.as<Ctrl>(), 0);
+  });
   c = I.read_ctrl();
   const double t_start = seconds_since(t0);  // host time before the device clock started
 
@@ -570,8 +685,10 @@ KernelTimes SimGpu::time_kernels(const double* x, int reps) {
   I.upd_norm.reserve(2 * sizeof(double));
   *I.snap = c;
   SF_CUDA(cudaMemcpyAsync(I.ctrl.p, I.snap, sizeof(Ctrl), cudaMemcpyHostToDevice, I.stream));
-  I.with_model([&](auto& m) { I.launch_eval(m, I.ctrl.as<Ctrl>(), I.xbuf[0].as<double>()); });
-  I.launch_ctrl(0);
+  I.with_model([&](auto& m) {
+    I.launch_step(m, 1);  // kInit: samples the field at xbuf[0]
+    I.launch_eval(m, I.ctrl.as<Ctrl>(), 0);
+  });
   SF_CUDA(cudaStreamSynchronize(I.stream));
   I.graph_dirty = true;
 
@@ -604,9 +721,8 @@ KernelTimes SimGpu::time_kernels(const double* x, int reps) {
   KernelTimes kt;
   // The evaluation reads the samples the start evaluation stored (as after a step).
   I.with_model([&](auto& m) {
-    kt.eval_us = time_graph([&](int) { I.launch_eval(m, I.ctrl.as<Ctrl>(), I.xbuf[0].as<double>()); });
+    kt.eval_us = time_graph([&](int) { I.launch_eval(m, I.ctrl.as<Ctrl>(), 0); });
   });
-  kt.ctrl_us = time_graph([&](int r) { I.launch_ctrl(r & 1); });
   // Every slot is a step (no checks); parity alternates within the graph.
   kt.slot_us = time_graph([&](int r) { I.launch_slot(r & 1); });
   I.with_model([&](auto& m) { kt.step_us = time_graph([&](int r) { I.launch_step(m, r & 1); }); });
@@ -628,6 +744,7 @@ KernelTimes SimGpu::time_kernels(const double* x, int reps) {
 }
 
 const sim::Simulator& SimGpu::simulator() const { return *impl_->sim; }
+int SimGpu::lanes() const { return impl_->lanes; }
 
 std::string SimGpu::device_name() const {
   cudaDeviceProp p;
@@ -641,7 +758,7 @@ size_t SimGpu::device_bytes() const {
   for (const DevBuf* b : {&I.spring_v, &I.vs_ptr, &I.vs_idx, &I.vw_ptr, &I.vw_idx, &I.nbr_ptr, &I.nbr_idx,
                           &I.self_slot, &I.rest_L, &I.shirring, &I.Q, &I.mass, &I.barrier_c, &I.stick_k, &I.stick_t,
                           &I.sdf_values, &I.xbuf[0], &I.xbuf[1], &I.ck, &I.f, &I.D, &I.S, &I.part_eval,
-                          &I.part_step, &I.ctrl, &I.upd_norm, &I.hist, &I.sums})
+                          &I.part_step, &I.ctrl, &I.upd_norm, &I.hist, &I.sums, &I.arrivals})
     s += b->bytes;
   return s;
 }

@@ -21,7 +21,8 @@ struct CudaError : std::runtime_error {
 
 struct GpuOptions {
   int device = 0;
-  int block = 128;           // threads per block of the per-vertex kernels
+  int block = 128;           // threads per block of the per-vertex kernels (32, 64, 128 or 256)
+  int lanes = 0;             // threads per vertex in the evaluation (1, 2, 4 or 8; 0: the most that fit one wave)
   int batch = 32;            // iterations per graph launch between host looks (even)
   bool use_graph = true;     // false: plain launches (for measuring launch overhead)
   bool float_rest = false;   // store rest lengths, shirring, Q, masses and barrier weights as float32
@@ -29,7 +30,7 @@ struct GpuOptions {
 
 // Per-kernel device times (microseconds) and their byte counts.
 struct KernelTimes {
-  double eval_us = 0, step_us = 0, ctrl_us = 0, slot_us = 0;  // slot: step + eval + control in a graph
+  double eval_us = 0, step_us = 0, slot_us = 0;  // eval includes the control step; slot: step + eval
   double eval_bytes = 0, step_bytes = 0;                       // unique bytes each kernel must move
 };
 
@@ -59,6 +60,7 @@ class SimGpu {
 
   const GpuOptions& options() const { return opt_; }
   const sim::Simulator& simulator() const;
+  int lanes() const;  // threads per vertex in the evaluation, as chosen
   std::string device_name() const;
   size_t device_bytes() const;
 

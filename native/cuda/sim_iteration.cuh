@@ -53,19 +53,22 @@ SF_HD void store3(double* a, int i, Vec3 v) {
 // Energy terms in EnergyTerms order.
 enum Term { kStretch = 0, kSewing, kBending, kGravity, kSticking, kBarrier, kTerms };
 
-// Force f = -dE/dx at vertex v, its PSD diagonal block D, and this vertex's
-// share of each energy term (terms of pairs are split half and half between
-// the two ends). s: the barrier field sample at x_v, read when known, written
-// otherwise. Mirrors Simulator::evaluate term for term and in the same order.
+// One lane's share of vertex v when `lanes` threads work on it: the gradient
+// g = dE/dx_v, the PSD diagonal block and the energy shares of incidences
+// lane, lane + lanes, ... of each list (terms of pairs are split half and half
+// between their two ends); lane 0 adds the per-vertex terms. The lanes' sums
+// are the vertex's totals. With lanes = 1 this is Simulator::evaluate term for
+// term and in the same order. s: the barrier field sample at x_v, read when
+// known, written otherwise (lane 0).
 template <class R>
-SF_HD void eval_vertex(const DevModel<R>& m, const double* x, int v, bool known, SdfSample& s, Vec3& f, Sym3& D,
-                       double e[kTerms]) {
+SF_HD void eval_vertex_part(const DevModel<R>& m, const double* x, int v, int lane, int lanes, bool known,
+                            SdfSample& s, Vec3& g, Sym3& D, double e[kTerms]) {
   const Vec3 xv = load3(x, v);
-  Vec3 g = make_vec3(0, 0, 0);
+  g = make_vec3(0, 0, 0);
   D = sim::sym3_zero();
   for (int t = 0; t < kTerms; ++t) e[t] = 0;
   if (m.Y > 0) {
-    for (int k = m.vs_ptr[v]; k < m.vs_ptr[v + 1]; ++k) {
+    for (int k = m.vs_ptr[v] + lane; k < m.vs_ptr[v + 1]; k += lanes) {
       const int code = m.vs_idx[k], sp = code >> 1;
       const Vec3 xi = load3(x, m.spring_v[2 * sp]), xj = load3(x, m.spring_v[2 * sp + 1]);
       const double L = double(m.rest_L[sp]), r = double(m.shirring[sp]);
@@ -77,21 +80,22 @@ SF_HD void eval_vertex(const DevModel<R>& m, const double* x, int v, bool known,
   }
   if (m.Ys > 0) {
     const int b = m.vw_ptr[v], en = m.vw_ptr[v + 1];
-    for (int k = b; k < en; ++k) {
+    for (int k = b + lane; k < en; k += lanes) {
       const Vec3 xu = load3(x, m.vw_idx[k]);
       g += sim::sewing_spring_grad(xv, xu, m.Ys);
       e[kSewing] += 0.5 * sim::sewing_spring_energy(xv, xu, m.Ys);
     }
-    D += sim::sym3_identity(m.Ys * (en - b));
+    if (lane == 0) D += sim::sym3_identity(m.Ys * (en - b));
   }
   if (m.kb > 0) {
     const int b = m.nbr_ptr[v], en = m.nbr_ptr[v + 1];
     Vec3 qx = make_vec3(0, 0, 0);
-    for (int k = b; k < en; ++k) qx += double(m.Q[k]) * load3(x, m.nbr_idx[k]);
+    for (int k = b + lane; k < en; k += lanes) qx += double(m.Q[k]) * load3(x, m.nbr_idx[k]);
     g += m.kb * qx;
-    e[kBending] += 0.5 * m.kb * dot(xv, qx);
-    D += sim::sym3_identity(m.kb * double(m.Q[b + m.self_slot[v]]));
+    e[kBending] += 0.5 * m.kb * dot(xv, qx);  // linear in qx: the lanes' shares add up
+    if (lane == 0) D += sim::sym3_identity(m.kb * double(m.Q[b + m.self_slot[v]]));
   }
+  if (lane != 0) return;
   if (m.grav) {
     const double mv = double(m.mass[v]);
     e[kGravity] += sim::gravity_energy(mv, m.gv, xv);
@@ -114,6 +118,15 @@ SF_HD void eval_vertex(const DevModel<R>& m, const double* x, int v, bool known,
       e[kBarrier] += std::numeric_limits<double>::infinity();
     }
   }
+}
+
+// Force f = -dE/dx at vertex v, its PSD diagonal block and its energy shares,
+// by one thread.
+template <class R>
+SF_HD void eval_vertex(const DevModel<R>& m, const double* x, int v, bool known, SdfSample& s, Vec3& f, Sym3& D,
+                       double e[kTerms]) {
+  Vec3 g;
+  eval_vertex_part(m, x, v, 0, 1, known, s, g, D, e);
   f = -g;
 }
 

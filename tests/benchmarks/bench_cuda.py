@@ -31,11 +31,16 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "native" / "python"))
 
-GARMENT = ROOT / "sample_files" / "patterns" / "gc_circle_skirt" / "size06" / "pattern.json"
+PATTERNS = ROOT / "sample_files" / "patterns"
+GARMENT = PATTERNS / "gc_circle_skirt" / "size06" / "pattern.json"
+# The drape comparison also uses the pencil skirt, which converges in fewer iterations.
+PENCIL = PATTERNS / "gc_pencil_skirt" / "size06" / "pattern.json"
+PENCIL_EDGES = {"pencil30k": 0.64}
 BODY = ROOT / "sample_files" / "bodies" / "women_size06.obj"
 # Edge lengths (cm) that give about 10K, 30K, 60K, 150K and 300K triangles.
 EDGES = {"10k": 1.47, "30k": 0.85, "60k": 0.60, "150k": 0.38, "300k": 0.27}
-DRAPE_SIZE = "60k"
+# (mesh, compare with the CPU): time against residual for these drapes.
+DRAPES = (("pencil30k", True), ("60k", False))
 
 
 def log(msg: str) -> None:
@@ -49,19 +54,21 @@ def prepare(args) -> None:
     from seamfit.sim.dressing import initial_positions
     out = Path(args.dir)
     out.mkdir(parents=True, exist_ok=True)
-    pattern = load_pattern(GARMENT)
-    for name, edge in EDGES.items():
+    jobs = [(GARMENT, name, edge) for name, edge in EDGES.items()]
+    jobs += [(PENCIL, name, edge) for name, edge in PENCIL_EDGES.items()]
+    for path, name, edge in jobs:
+        pattern = load_pattern(path)
         t0 = time.perf_counter()
         mesh = build_sewn_mesh(pattern, edge)
         x0, _ = initial_positions(mesh, pattern, None, mode="none")  # GarmentCode placements are exact
-        np.savez_compressed(out / f"skirt_{name}.npz", uv_cm=mesh.uv_cm, triangles=mesh.triangles.astype(np.int32),
+        np.savez_compressed(out / (f"{name}.npz" if name.startswith("pencil") else f"skirt_{name}.npz"), uv_cm=mesh.uv_cm, triangles=mesh.triangles.astype(np.int32),
                             sewing_pairs=mesh.sewing_pairs.astype(np.int32), x0=x0, edge_cm=edge)
         log(f"{name}: {mesh.n_vertices} vertices, {len(mesh.triangles)} triangles, "
             f"{len(mesh.sewing_pairs)} sewing pairs, {time.perf_counter() - t0:.1f} s")
 
 
 def load_mesh(d: Path, name: str):
-    z = np.load(d / f"skirt_{name}.npz")
+    z = np.load(d / (f"{name}.npz" if name.startswith("pencil") else f"skirt_{name}.npz"))
     return SimpleNamespace(**{k: z[k] for k in z.files})
 
 
@@ -153,6 +160,12 @@ def gpu_timings(d: Path, sizes, sdf):
                 row.update({f"kernel_{k}": v for k, v in kt.items()})
                 row["device"] = g.device_name
                 row["device_bytes"] = g.device_bytes
+        row["lanes_auto"] = CudaSimulator(sim).lanes
+        for lanes in (1, 2, 4, 8):
+            g = CudaSimulator(sim, lanes=lanes)
+            g.solve(x_mid, max_iterations=64)
+            row[f"gpu_us_per_iteration_lanes{lanes}"] = 1e6 * per_iteration(
+                lambda n: g.solve(x_mid, max_iterations=n, sync=False), 1000, 5000)
         for batch in (8, 128):
             g = CudaSimulator(sim, batch=batch)
             g.solve(x_mid, max_iterations=64)
@@ -164,6 +177,9 @@ def gpu_timings(d: Path, sizes, sdf):
         f32 = CudaSimulator(sim, float_rest=True).force(x_mid)
         scale = np.abs(f_cpu).max()
         wn = sim.core.weight_norm
+        row["stretch_Y"] = sim.core.params.stretch_Y
+        row["f_max"] = float(scale)
+        row["f64_abs_err"] = float(np.abs(f64 - f_cpu).max())
         row["f64_rel_err"] = float(np.abs(f64 - f_cpu).max() / scale)
         row["f32_rel_err"] = float(np.abs(f32 - f_cpu).max() / scale)
         row["f32_residual_shift"] = float(np.linalg.norm(f32 - f_cpu) / wn)  # in units of the relative residual
@@ -172,16 +188,20 @@ def gpu_timings(d: Path, sizes, sdf):
     return rows
 
 
-def drape_compare(d: Path, sdf, threads: int, cpu_seconds: float):
+def drape_compare(d: Path, name: str, with_cpu: bool, sdf, threads: int, cpu_seconds: float,
+                  gpu_iterations: int = 300000):
     """Full drape (sew, then settle to 1e-3) of one size on the GPU (float64
-    and float32 rest state) and on the CPU (time-capped per stage)."""
-    mesh = load_mesh(d, DRAPE_SIZE)
-    out = {"size": DRAPE_SIZE, "triangles": int(len(mesh.triangles))}
+    and float32 rest state) and on the CPU (time-capped per stage), each with
+    an iteration budget of `gpu_iterations` per stage."""
+    mesh = load_mesh(d, name)
+    out = {"size": name, "triangles": int(len(mesh.triangles)), "vertices": int(len(mesh.uv_cm))}
     results = {}
-    for label, dev, opts in (("gpu_f64", "cuda", {}), ("gpu_f32", "cuda", {"float_rest": True}),
-                             ("cpu", "cpu", {})):
+    runs = [("gpu_f64", "cuda", {}), ("gpu_f32", "cuda", {"float_rest": True})]
+    if with_cpu:
+        runs.append(("cpu", "cpu", {}))
+    for label, dev, opts in runs:
         kw = {"max_seconds": cpu_seconds} if dev == "cpu" else {}
-        sim = make_sim(mesh, sdf, threads=threads, device=dev, **kw)
+        sim = make_sim(mesh, sdf, threads=threads, device=dev, max_iterations=gpu_iterations, **kw)
         if opts:
             from seamfit.sim.cuda import CudaSimulator
             sim._gpu = CudaSimulator(sim, **opts)
@@ -194,10 +214,10 @@ def drape_compare(d: Path, sdf, threads: int, cpu_seconds: float):
                       "min_phi_mm": r.min_phi_mm, "cpu_residual_at_x": float(make_sim(mesh, sdf).residual(r.x)),
                       "history": r.history, "stages": [{k: v for k, v in s.items() if not k.startswith("history")}
                                                        for s in r.stages]}
-        log(f"drape {label}: {r.message}; {r.iterations} iterations in {r.seconds:.2f} s")
+        log(f"drape {name} {label}: {r.message}; {r.iterations} iterations in {r.seconds:.2f} s")
     a, b = results["gpu_f64"].x, results["gpu_f32"].x
     out["f32_vs_f64_max_mm"] = float(1e3 * np.abs(a - b).max())
-    if results["cpu"].converged:
+    if with_cpu and results["cpu"].converged:
         out["gpu_vs_cpu_max_mm"] = float(1e3 * np.abs(a - results["cpu"].x).max())
     return out
 
@@ -213,7 +233,7 @@ def run(args) -> None:
     def save():
         path.write_text(json.dumps(res, indent=1, default=float))
 
-    meshes = [load_mesh(d, s) for s in sizes]
+    meshes = [load_mesh(d, s) for s in sizes] + [load_mesh(d, name) for name, _ in DRAPES]
     res["sdf_shape"] = None
     sdf = body_sdf(meshes)
     res["sdf_shape"] = list(sdf.values.shape[::-1])
@@ -227,7 +247,8 @@ def run(args) -> None:
         res["cpu"] = cpu_timings(d, sizes, sdf, args.threads)
         save()
     if args.what in ("all", "drape"):
-        res["drape"] = drape_compare(d, sdf, args.threads, args.cpu_seconds)
+        res["drape"] = [drape_compare(d, name, cpu and not args.no_cpu_drape, sdf, args.threads, args.cpu_seconds)
+                        for name, cpu in DRAPES]
         save()
     log(f"wrote {path}")
 
@@ -247,7 +268,18 @@ def report(args) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    res = json.loads(Path(args.results).read_text())
+    # Later files add to earlier ones (drapes merge by mesh).
+    res = {}
+    for path in args.results:
+        r = json.loads(Path(path).read_text())
+        for k, v in r.items():
+            if k == "drape" and "drape" in res:
+                by = {d["size"]: d for d in res["drape"]}
+                for d in v:
+                    by.setdefault(d["size"], {}).update(d)
+                res["drape"] = list(by.values())
+            else:
+                res[k] = v
     dev = json.loads(Path(args.cpu_dev).read_text()) if args.cpu_dev else None
     img = Path(args.img)
     img.mkdir(parents=True, exist_ok=True)
@@ -273,21 +305,66 @@ def report(args) -> None:
     fig.tight_layout()
     fig.savefig(img / "gpu_iteration_time.png", dpi=120)
     if "drape" in res:
-        dr = res["drape"]
-        fig, ax = plt.subplots(figsize=(6.4, 4.4))
-        for label, style in (("gpu_f64", "-"), ("gpu_f32", "--"), ("cpu", "-")):
-            h = dr[label]["history"]
-            ax.semilogy(np.maximum(h["seconds"], 1e-3), h["residual"], style, label=label.replace("_", " "))
-        ax.set_xscale("log")
-        ax.axhline(1e-3, color="gray", lw=0.8, ls=":")
-        ax.set_xlabel("seconds (sew stage, then settle)")
-        ax.set_ylabel("relative residual |f| / |m g|")
-        ax.set_title(f"circle skirt, {dr['triangles']} triangles")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        fig, axes = plt.subplots(1, len(res["drape"]), figsize=(11, 4.2))
+        for ax, dr in zip(np.atleast_1d(axes), res["drape"]):
+            for label, style in (("gpu_f64", "-"), ("gpu_f32", "--"), ("cpu", "-")):
+                if label not in dr:
+                    continue
+                h = dr[label]
+                name = {"gpu_f64": "GPU float64", "gpu_f32": "GPU float32 rest state",
+                        "cpu": f"CPU {res['cpu'][0]['cpu_threads'] if 'cpu' in res else ''} threads"}[label]
+                ax.semilogy(np.maximum(h["history"]["seconds"], 1e-3), h["history"]["residual"], style,
+                            label=f"{name}: {h['iterations']} it, {h['seconds']:.1f} s")
+            ax.set_xscale("log")
+            ax.axhline(1e-3, color="gray", lw=0.8, ls=":")
+            ax.set_xlabel("seconds (sew stage, then settle)")
+            ax.set_ylabel("relative residual |f| / |m g|")
+            garment = "pencil skirt" if dr["size"].startswith("pencil") else "circle skirt"
+            ax.set_title(f"{garment}, {dr['triangles']} triangles", fontsize=10)
+            ax.grid(True, which="both", alpha=0.3)
+            ax.legend(fontsize=7)
         fig.tight_layout()
         fig.savefig(img / "gpu_drape_residual.png", dpi=120)
     print("wrote plots to", img)
+    # Tables for docs/gpu_results.md.
+    cpu = {r["size"]: r for r in res.get("cpu", [])}
+    cdev = {r["size"]: r for r in (dev or {}).get("cpu", [])}
+    print("| triangles | vertices | GPU us/it | plain launches | lanes 1 / 2 / 4 / 8 | chosen | "
+          "CPU us/it (16 threads) | dev box | GPU speed-up |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in gpu:
+        c = cpu.get(r["size"], {}).get("cpu_us_per_iteration", float("nan"))
+        dv = cdev.get(r["size"], {}).get("cpu_us_per_iteration", float("nan"))
+        lanes = " / ".join(f"{r.get(f'gpu_us_per_iteration_lanes{L}', float('nan')):.1f}" for L in (1, 2, 4, 8))
+        print(f"| {r['triangles']:,} | {r['vertices']:,} | {r['gpu_us_per_iteration_graph']:.1f} | "
+              f"{r['gpu_us_per_iteration_nograph']:.1f} | {lanes} | {r.get('lanes_auto', '')} | {c:.0f} | {dv:.0f} | "
+              f"{c / r['gpu_us_per_iteration_graph']:.0f}x |")
+    bw = res.get("peak_copy_bytes_per_s") or float("nan")
+    print(f"\ncopy bandwidth {bw / 1e12:.2f} TB/s")
+    print("| triangles | eval us | step us | slot us | eval MB | step MB | eval GB/s | % of copy | step GB/s |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in gpu:
+        eb, sb = r["kernel_eval_bytes"], r["kernel_step_bytes"]
+        print(f"| {r['triangles']:,} | {r['kernel_eval_us']:.1f} | {r['kernel_step_us']:.1f} | {r['kernel_slot_us']:.1f} | "
+              f"{eb / 1e6:.1f} | {sb / 1e6:.1f} | {eb / r['kernel_eval_us'] / 1e3:.0f} | "
+              f"{100 * eb / r['kernel_eval_us'] * 1e6 / bw:.0f}% | {sb / r['kernel_step_us'] / 1e3:.0f} |")
+    print("| triangles | float64 force err (N) | rel. to max(|f|, Y) | float32-rest err (rel.) | "
+          "float32 shift of the residual | float32 us/it |")
+    print("|---|---|---|---|---|---|")
+    for r in gpu:
+        print(f"| {r['triangles']:,} | {r['f64_abs_err']:.2g} | {r['f64_abs_err'] / max(r['f_max'], r['stretch_Y']):.2g} | "
+              f"{r['f32_rel_err']:.2g} | {r['f32_residual_shift']:.2g} | {r['gpu_us_per_iteration_f32']:.1f} |")
+    for dr in res.get("drape", []):
+        print(f"\ndrape {dr['size']} ({dr['triangles']:,} triangles)")
+        for label in ("gpu_f64", "gpu_f32", "cpu"):
+            if label in dr:
+                h = dr[label]
+                print(f"- {label}: {h['message']}; {h['iterations']} iterations, {h['seconds']:.2f} s; "
+                      f"CPU residual at x {h['cpu_residual_at_x']:.3g}; seam gap {h['max_sewing_gap_mm']:.2f} mm; "
+                      f"min phi {h['min_phi_mm']:.2f} mm")
+        for k in ("f32_vs_f64_max_mm", "gpu_vs_cpu_max_mm"):
+            if k in dr:
+                print(f"- {k}: {dr[k]:.3g}")
 
 
 def main() -> None:
@@ -302,12 +379,13 @@ def main() -> None:
         p.add_argument("--sizes", default=",".join(EDGES))
         p.add_argument("--threads", type=int, default=0, help="CPU threads (0: all)")
         p.add_argument("--cpu-seconds", type=float, default=60.0, help="CPU drape time cap per stage")
+        p.add_argument("--no-cpu-drape", action="store_true", help="drape on the GPU only")
         p.add_argument("--what", default=what, choices=("all", "gpu", "cpu", "drape"))
     p = sub.add_parser("ncu-target")
     p.add_argument("--dir", required=True)
     p.add_argument("--size", default="60k")
     p = sub.add_parser("report")
-    p.add_argument("--results", required=True)
+    p.add_argument("--results", required=True, nargs="+")
     p.add_argument("--cpu-dev")
     p.add_argument("--img", default=str(ROOT / "docs" / "img"))
     args = ap.parse_args()

@@ -44,19 +44,26 @@ class CudaSimulator:
         barrier weights as float32 (arithmetic stays float64); see docs/gpu.md
         for what that costs in accuracy.
     batch: iterations per graph launch between two looks of the host (even).
+    block, lanes: threads per block, and threads per vertex in the force
+        evaluation (0: the most that keep it in one wave of resident blocks);
+        tuning, see docs/gpu_results.md.
     """
 
-    def __init__(self, simulator, *, device: int = 0, batch: int = 32, block: int = 128,
+    def __init__(self, simulator, *, device: int = 0, batch: int = 32, block: int = 128, lanes: int = 0,
                  use_graph: bool = True, float_rest: bool = False):
         require_cuda()
         self.simulator = simulator
         self._core_sim = simulator.core if hasattr(simulator, "core") else simulator
-        self._gpu = core().CudaSimulator(self._core_sim, device=device, block=block, batch=batch,
+        self._gpu = core().CudaSimulator(self._core_sim, device=device, block=block, lanes=lanes, batch=batch,
                                          use_graph=use_graph, float_rest=float_rest)
 
     @property
     def device_name(self) -> str:
         return self._gpu.device_name
+
+    @property
+    def lanes(self) -> int:
+        return self._gpu.lanes
 
     @property
     def device_bytes(self) -> int:

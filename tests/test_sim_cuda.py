@@ -5,8 +5,8 @@ present (seamfit._core.cuda_device_count() > 0). On the GPU the force and the
 energy terms equal the CPU's to 1e-12 relative (float64, same term functions,
 differing only in summation order and fused multiply-adds); a GPU solve stops
 with the CPU's verdicts, its residual re-evaluated on the CPU meets the
-tolerance, and its drape lies within 1 mm of the CPU's (the two differ by
-rounding only, which moves restarts by a few iterations).
+tolerance, and its drape lies within 0.01 mm of the CPU's where the
+equilibrium is unique (where it is not, the energies agree to 1e-4).
 
 Real-garment meshes need gmsh; on machines without it, SEAMFIT_TEST_MESH_CACHE
 names a folder of meshes built elsewhere (written there when gmsh is present).
@@ -24,7 +24,7 @@ from seamfit._native import core
 from seamfit.errors import DeviceError, SolveError
 from seamfit.sim import Fabric, SimSettings, Simulator
 
-from sim_helpers import capsule_sdf, hourglass_sdf, sewn_tube
+from sim_helpers import capsule_sdf, flat_sheet, hourglass_sdf, sewn_tube, sphere_sdf
 
 DEVICES = ["cpu"] + (["cuda"] if core().cuda_device_count() > 0 else [])
 GPU_DEVICES = [d for d in DEVICES if d != "cpu"]
@@ -170,9 +170,45 @@ def test_float32_rest_state_stays_within_its_rounding(device, skirt):
     assert 0 < err <= 2.0 * degree * Y * 2.0**-24
 
 
+def sheet_on_ball(device, tol, **gpu_options):
+    """A sheet hanging from two pinned corners, pressed out by a ball behind
+    it: one equilibrium, with contact (the ball pushes 15 vertices out)."""
+    mesh = flat_sheet(width_cm=20, height_cm=20, nu=10, nv=10, jitter=0.2)
+    mesh.x0 = np.c_[mesh.x0[:, 0], np.zeros(len(mesh.x0)), mesh.x0[:, 1]]
+    body = sphere_sdf(center=(0.1, 0.09, 0.08), radius=0.1, spacing=0.01)
+    sim = Simulator(mesh, body, Fabric(), SimSettings(sew_first=False, tolerance=tol, max_iterations=400000,
+                                                      device=device))
+    top = np.flatnonzero(mesh.uv_cm[:, 1] > 19.99)
+    corners = top[[np.argmin(mesh.uv_cm[top, 0]), np.argmax(mesh.uv_cm[top, 0])]]
+    sim.set_sticking(corners, mesh.x0[corners], stiffness=200.0)
+    if gpu_options:
+        from seamfit.sim.cuda import CudaSimulator
+        sim._gpu = CudaSimulator(sim, **gpu_options)
+    return sim
+
+
+@pytest.mark.parametrize("device,options", [(d, o) for d in DEVICES
+                                            for o in ([{}] if d == "cpu" else [{}, {"fuse_control": False}])])
+def test_drape_with_contact_matches_cpu(device, options):
+    """Same equilibrium as the CPU's to 0.01 mm (two CPU runs from starts 1 nm
+    apart agree to 0.0003 mm), reached with the same verdict."""
+    tol = 1e-5
+    ref = sheet_on_ball("cpu", tol).drape()
+    sim = sheet_on_ball(device, tol, **options)
+    res = sim.drape()
+    assert ref.converged and res.converged, (ref.message, res.message)
+    assert ref.energy_terms["barrier"] > 0 and res.stages[0]["projections"] == ref.stages[0]["projections"] > 0
+    assert res.residual <= tol
+    assert sim.residual(res.x) == pytest.approx(res.residual, rel=1e-9)  # the CPU's residual at the device's x
+    assert np.abs(res.x - ref.x).max() <= 1e-5
+
+
 @pytest.mark.parametrize("device", DEVICES)
-def test_drape_matches_cpu(device):
-    """Sew and settle a tube on a torso; the device's drape against the CPU's."""
+def test_tube_drape_matches_cpu(device):
+    """Sew and settle a tube on a torso on the device and on the CPU. The
+    settle has nearby equilibria of equal energy (on the CPU alone, starts
+    1 nm apart end 33 mm apart at one fold, energies 2.5e-6 apart), so the
+    drapes are compared by verdicts, residual, seams, contact and energy."""
     mesh = sewn_tube(radius_m=0.12, height_cm=30, nu=10, nv=6, gap_m=0.05, z0=0.2, ease=1.1)
     body = hourglass_sdf(spacing=0.01)
     tol = 1e-4
@@ -186,11 +222,11 @@ def test_drape_matches_cpu(device):
     assert ref.converged and res.converged, (ref.message, res.message)
     assert [s["stage"] for s in res.stages] == ["sew", "settle"]
     assert [s["converged"] for s in res.stages] == [s["converged"] for s in ref.stages]
-    # The residual the device reports is the CPU's at the returned state.
     assert res.residual <= tol
     assert cpu_sim.residual(res.x) == pytest.approx(res.residual, rel=1e-9)
     assert res.max_sewing_gap_mm <= 2.0 and res.min_phi_mm >= -1.0
-    assert np.abs(res.x - ref.x).max() <= 1e-3  # 1 mm
+    e_ref, e_dev = sum(ref.energy_terms.values()), sum(res.energy_terms.values())
+    assert abs(e_dev - e_ref) <= 1e-4 * abs(e_ref)
 
 
 @pytest.mark.parametrize("device", DEVICES)

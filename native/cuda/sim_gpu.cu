@@ -139,7 +139,18 @@ struct EvalArgs {
   double* upd_norm = nullptr;
   double* hist = nullptr;
   int new_cur = 0;              // the buffer that holds x
+  bool fuse = true;             // run the control step in the last block (else k_ctrl does)
 };
+
+// The solver's control step on the reduced sums, by one thread, on a local
+// copy of the control state (one load and one store, not one per field).
+__device__ void control_step(Ctrl* c, const double* sums, int new_cur, double* upd_norm, double* hist) {
+  Ctrl cc = *c;
+  const unsigned long long now = global_ns();
+  if (cc.mode == kInit) cc.t0_ns = now;
+  ctrl_update(cc, sums, new_cur, upd_norm, hist, 1e-9 * double(now - cc.t0_ns));
+  *c = cc;
+}
 
 // Force, diagonal blocks and energy shares at x, L threads per vertex (more
 // threads in flight, shorter dependent chains per thread); per-block partial
@@ -194,7 +205,7 @@ __global__ void __launch_bounds__(256) k_eval(DevModel<R> m, EvalArgs a) {
     acc[kTerms] = norm2(fv);
   }
   block_sum<kTerms + 1>(acc, a.part_eval + (kTerms + 1) * blockIdx.x);
-  if (!c) return;
+  if (!c || !a.fuse) return;
   __shared__ bool last;
   if (threadIdx.x == 0) {
     __threadfence();  // this block's sums before its arrival
@@ -206,13 +217,18 @@ __global__ void __launch_bounds__(256) k_eval(DevModel<R> m, EvalArgs a) {
   __shared__ double sums[kSums];
   reduce_parts(a.part_eval, gridDim.x, a.part_step, a.nb_step, sums);
   if (threadIdx.x == 0) {
-    Ctrl cc = *c;  // one load and one store of the control state, not one per field
-    const unsigned long long now = global_ns();
-    if (cc.mode == kInit) cc.t0_ns = now;
-    ctrl_update(cc, sums, a.new_cur, a.upd_norm, a.hist, 1e-9 * double(now - cc.t0_ns));
-    *c = cc;
+    control_step(c, sums, a.new_cur, a.upd_norm, a.hist);
     *a.arrivals = 0;
   }
+}
+
+// The control step as a kernel of its own (GpuOptions::fuse_control false).
+__global__ void __launch_bounds__(kCtrlThreads) k_ctrl(Ctrl* c, const double* pe, int nbe, const double* ps, int nbs,
+                                                      int new_cur, double* upd_norm, double* hist) {
+  if (c->done) return;
+  __shared__ double sums[kSums];
+  reduce_parts(pe, nbe, ps, nbs, sums);
+  if (threadIdx.x == 0) control_step(c, sums, new_cur, upd_norm, hist);
 }
 
 // The step from cur (x_k) with prev (x_{k-1}); the new state goes to prev.
@@ -322,10 +338,15 @@ struct SimGpu::Impl {
     a.upd_norm = upd_norm.as<double>();
     a.hist = hist.as<double>();
     a.new_cur = new_cur;
+    a.fuse = opt.fuse_control;
     const int nb = int((int64_t(n) * L + opt.block - 1) / opt.block);
     if (c) k_eval<R, L, false><<<nb, opt.block, 0, stream>>>(m, a);
     else k_eval<R, L, true><<<nb, opt.block, 0, stream>>>(m, a);
     SF_CUDA(cudaGetLastError());
+    if (c && !opt.fuse_control) {
+      k_ctrl<<<1, kCtrlThreads, 0, stream>>>(c, a.part_eval, nb, a.part_step, nb_step, new_cur, a.upd_norm, a.hist);
+      SF_CUDA(cudaGetLastError());
+    }
   }
   template <class R>
   void launch_eval(const DevModel<R>& m, Ctrl* c, int new_cur) {

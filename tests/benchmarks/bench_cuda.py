@@ -150,7 +150,8 @@ def gpu_timings(d: Path, sizes, sdf):
         # A state mid-way through dressing: seams closing, barrier active.
         x_mid = CudaSimulator(sim).solve(mesh.x0, max_iterations=1500)[0]
         row["active_barrier_fraction"] = float(np.mean(sim.phi(x_mid, barrier_field=True) < sim.settings.barrier_distance))
-        for label, opts in (("graph", {}), ("nograph", {"use_graph": False}), ("f32", {"float_rest": True})):
+        for label, opts in (("graph", {}), ("nograph", {"use_graph": False}), ("f32", {"float_rest": True}),
+                            ("ctrlkernel", {"fuse_control": False})):
             g = CudaSimulator(sim, **opts)
             g.solve(x_mid, max_iterations=64)  # warm-up, graph capture
             s = per_iteration(lambda n: g.solve(x_mid, max_iterations=n, sync=False), 1000, 5000)
@@ -183,6 +184,8 @@ def gpu_timings(d: Path, sizes, sdf):
         row["f64_rel_err"] = float(np.abs(f64 - f_cpu).max() / scale)
         row["f32_rel_err"] = float(np.abs(f32 - f_cpu).max() / scale)
         row["f32_residual_shift"] = float(np.linalg.norm(f32 - f_cpu) / wn)  # in units of the relative residual
+        for lanes in (1, 8):
+            row[f"f64_abs_err_lanes{lanes}"] = float(np.abs(CudaSimulator(sim, lanes=lanes).force(x_mid) - f_cpu).max())
         rows.append(row)
         log(f"GPU {name}: " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in row.items()))
     return rows

@@ -47,15 +47,17 @@ class CudaSimulator:
     block, lanes: threads per block, and threads per vertex in the force
         evaluation (0: the most that keep it in one wave of resident blocks);
         tuning, see docs/gpu_results.md.
+    fuse_control: run the solver's control step in the last block of the force
+        evaluation instead of a kernel of its own (same results).
     """
 
     def __init__(self, simulator, *, device: int = 0, batch: int = 32, block: int = 128, lanes: int = 0,
-                 use_graph: bool = True, float_rest: bool = False):
+                 use_graph: bool = True, float_rest: bool = False, fuse_control: bool = True):
         require_cuda()
         self.simulator = simulator
         self._core_sim = simulator.core if hasattr(simulator, "core") else simulator
         self._gpu = core().CudaSimulator(self._core_sim, device=device, block=block, lanes=lanes, batch=batch,
-                                         use_graph=use_graph, float_rest=float_rest)
+                                         use_graph=use_graph, float_rest=float_rest, fuse_control=fuse_control)
 
     @property
     def device_name(self) -> str:

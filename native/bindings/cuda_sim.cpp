@@ -109,7 +109,7 @@ void bind_cuda_sim(py::module_& m) {
            }),
            py::arg("simulator"), py::arg("device") = 0, py::arg("block") = 128, py::arg("lanes") = 0,
            py::arg("batch") = 32,
-           py::arg("use_graph") = true, py::arg("float_rest") = false, py::arg("fuse_control") = true,
+           py::arg("use_graph") = true, py::arg("float_rest") = false, py::arg("fuse_control") = false,
            py::keep_alive<1, 2>())  // the CPU simulator must outlive its GPU copy
       .def("sync", &SimGpu::sync,
            "Re-read parameters, rest state, sticking and (if it changed) the body from the CPU simulator.")

@@ -1,14 +1,16 @@
-// CUDA backend of the quasistatic simulator (see sim_gpu.hpp).
+// CUDA backend of the quasistatic simulator (see sim_gpu.hpp, docs/gpu.md).
 //
 // One iteration is three kernels: the step (block-Jacobi direction, Chebyshev
-// combination, barrier-safe step), the evaluation of the new state (force,
-// diagonal blocks, energy terms, per-block partial sums) and a one-block
-// control kernel that reduces the partial sums in a fixed order and runs the
-// solver's rules (energy checks, restarts, rho and omega, stopping). A batch
+// combination, barrier-safe step, and the field sample at the new position),
+// the evaluation of the new state (force, diagonal blocks, energy terms,
+// per-block partial sums) and a one-block control kernel that reduces the
+// partial sums in a fixed order and runs the solver's rules (energy checks,
+// restarts, rho and omega, stopping). The control step can instead run in the
+// evaluation's last block (GpuOptions::fuse_control); measured slower. A batch
 // of iterations is one CUDA graph launch; the host reads the control state
-// once per batch. After a stop the remaining kernels of the batch return at
-// once. Per-vertex work is a gather over CSR incidence lists: no atomics, and
-// the sums are deterministic.
+// once per batch, and after a stop the rest of the batch returns at once.
+// Per-vertex work is a gather over CSR incidence lists: no atomics in the
+// physics, and the sums are deterministic.
 #include <cuda_runtime.h>
 
 // Eigen (through simulator.hpp) marks defaulted members __host__ __device__.
@@ -391,15 +393,16 @@ struct SimGpu::Impl {
     }
     SF_CUDA(cudaGraphLaunch(graph, stream));
   }
-  // The most lanes per vertex that still fit the evaluation in one wave of
-  // resident blocks: the kernel is latency bound, so more threads in flight
-  // help only while they all run at once.
+  // Two lanes per vertex when the evaluation still fits one wave of resident
+  // blocks, else one: the kernel is latency bound, so more threads in flight
+  // help only while they all run at once, and measured on an H200 (see
+  // docs/gpu_results.md) 4 or 8 lanes never beat 2 by more than the noise.
   int auto_lanes() {
     int dev = 0, sms = 0;
     SF_CUDA(cudaGetDevice(&dev));
     SF_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
     int best = 1;
-    for (int L : {2, 4, 8}) {
+    for (int L : {2}) {
       int per_sm = 0;
       cudaError_t e = cudaSuccess;
       if (opt.float_rest) {

@@ -22,11 +22,11 @@ struct CudaError : std::runtime_error {
 struct GpuOptions {
   int device = 0;
   int block = 128;           // threads per block of the per-vertex kernels (32, 64, 128 or 256)
-  int lanes = 0;             // threads per vertex in the evaluation (1, 2, 4 or 8; 0: the most that fit one wave)
+  int lanes = 0;             // threads per vertex in the evaluation (1, 2, 4 or 8; 0: 2 if that fits one wave, else 1)
   int batch = 32;            // iterations per graph launch between host looks (even)
   bool use_graph = true;     // false: plain launches (for measuring launch overhead)
   bool float_rest = false;   // store rest lengths, shirring, Q, masses and barrier weights as float32
-  bool fuse_control = true;  // the control step in the evaluation's last block, not a kernel of its own
+  bool fuse_control = false;  // the control step in the evaluation's last block, not a kernel of its own
 };
 
 // Per-kernel device times (microseconds) and their byte counts.

@@ -45,14 +45,14 @@ class CudaSimulator:
         for what that costs in accuracy.
     batch: iterations per graph launch between two looks of the host (even).
     block, lanes: threads per block, and threads per vertex in the force
-        evaluation (0: the most that keep it in one wave of resident blocks);
+        evaluation (0: 2 while that keeps it in one wave of resident blocks, else 1);
         tuning, see docs/gpu_results.md.
     fuse_control: run the solver's control step in the last block of the force
-        evaluation instead of a kernel of its own (same results).
+        evaluation instead of a kernel of its own (same rules; measured slower).
     """
 
     def __init__(self, simulator, *, device: int = 0, batch: int = 32, block: int = 128, lanes: int = 0,
-                 use_graph: bool = True, float_rest: bool = False, fuse_control: bool = True):
+                 use_graph: bool = True, float_rest: bool = False, fuse_control: bool = False):
         require_cuda()
         self.simulator = simulator
         self._core_sim = simulator.core if hasattr(simulator, "core") else simulator

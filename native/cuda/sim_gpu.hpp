@@ -31,7 +31,7 @@ struct GpuOptions {
 
 // Per-kernel device times (microseconds) and their byte counts.
 struct KernelTimes {
-  double eval_us = 0, step_us = 0, slot_us = 0;  // eval includes the control step; slot: step + eval
+  double eval_us = 0, step_us = 0, slot_us = 0;  // eval: with the control step; slot: step + eval + control
   double eval_bytes = 0, step_bytes = 0;                       // unique bytes each kernel must move
 };
 

@@ -7,4 +7,5 @@ void bind_device(pybind11::module_& m);
 void bind_body(pybind11::module_& m);
 void bind_sim(pybind11::module_& m);
 void bind_opt(pybind11::module_& m);
+void bind_cuda_sim(pybind11::module_& m);
 }  // namespace seamfit::bindings

@@ -6,4 +6,5 @@ PYBIND11_MODULE(_core, m) {
   seamfit::bindings::bind_body(m);
   seamfit::bindings::bind_sim(m);
   seamfit::bindings::bind_opt(m);
+  seamfit::bindings::bind_cuda_sim(m);
 }

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "sim/jacobi_step.hpp"
 #include "sim/terms/barrier.hpp"
 #include "sim/terms/bending.hpp"
 #include "sim/terms/mass.hpp"
@@ -232,21 +233,43 @@ void Simulator::set_sdf_view(const float* values, int nx, int ny, int nz, const 
   for (int a = 0; a < 3; ++a) sdf_.origin[a] = origin[a];
   sdf_.spacing = spacing;
   has_sdf_ = true;
+  ++sdf_revision_;
 }
 
 void Simulator::clear_sdf() {
   has_sdf_ = false;
   sdf_values_.clear();
   sdf_ = SdfGridView();
+  ++sdf_revision_;
 }
 
-SdfSample Simulator::sdf_at(Vec3 p) const {
-  if (params_.barrier_smooth) {
-    const SdfSample2 s = sdf_sample_smooth<false>(sdf_, p);
-    return {s.phi, s.grad};
-  }
-  return sdf_sample(sdf_, p);
+SimArrays Simulator::arrays() const {
+  SimArrays a;
+  a.n = n_;
+  a.n_springs = n_springs();
+  a.spring_v = spring_v_.data();
+  a.vs_ptr = vs_ptr_.data();
+  a.vs_idx = vs_idx_.data();
+  a.vw_ptr = vw_ptr_.data();
+  a.vw_idx = vw_idx_.data();
+  a.nbr_ptr = nbr_ptr_.data();
+  a.nbr_idx = nbr_idx_.data();
+  a.self_slot = self_slot_.data();
+  a.rest_L = rest_L_.data();
+  a.shirring = shirring_.data();
+  a.Q = Q_.data();
+  a.mass = mass_.data();
+  a.barrier_c = barrier_c_.data();
+  a.stick_k = stick_k_.data();
+  a.stick_t = stick_t_.data();
+  a.any_sticking = any_sticking_;
+  a.has_sdf = has_sdf_;
+  a.sdf = sdf_;
+  a.sdf_revision = sdf_revision_;
+  return a;
 }
+
+SdfSample Simulator::sdf_at(Vec3 p) const { return barrier_field(sdf_, params_.barrier_smooth, p); }
 
 Sym3 Simulator::sdf_hess_at(Vec3 p) const {
   return params_.barrier_smooth ? sdf_sample_smooth<true>(sdf_, p).hess : sdf_hessian(sdf_, p);

@@ -93,6 +93,26 @@ struct SolveReport {
 // Progress callback: (iteration, residual) -> keep going?
 using ProgressFn = std::function<bool(int, double)>;
 
+// Read-only view of the assembled topology, rest state and body of a
+// Simulator, for backends that mirror it elsewhere (the CUDA backend copies
+// these to the device). Pointers are into the Simulator and stay valid until
+// it changes; CSR lengths are ptr[n].
+struct SimArrays {
+  int n = 0, n_springs = 0;
+  const int32_t* spring_v = nullptr;                            // 2E
+  const int32_t *vs_ptr = nullptr, *vs_idx = nullptr;           // springs at a vertex: e*2 + side
+  const int32_t *vw_ptr = nullptr, *vw_idx = nullptr;           // sewing partners
+  const int32_t *nbr_ptr = nullptr, *nbr_idx = nullptr, *self_slot = nullptr;  // block pattern
+  const double *rest_L = nullptr, *shirring = nullptr;          // E
+  const double* Q = nullptr;                                    // on the block pattern
+  const double *mass = nullptr, *barrier_c = nullptr;           // n
+  const double *stick_k = nullptr, *stick_t = nullptr;          // n, 3n
+  bool any_sticking = false;
+  bool has_sdf = false;
+  SdfGridView sdf;            // host memory
+  uint64_t sdf_revision = 0;  // changes whenever set_sdf / clear_sdf runs
+};
+
 class Simulator {
  public:
   // p: 2n pattern coordinates (m); tris: 3T vertex indices; sew: 2K vertex pairs.
@@ -108,6 +128,7 @@ class Simulator {
   bool has_sdf() const { return has_sdf_; }
   void set_params(const SimParams& params);  // everything but the topology
   const SimParams& params() const { return params_; }
+  SimArrays arrays() const;
   void set_pattern(const double* p);         // new rest state (2n)
   void set_shirring(const double* r);        // per patch spring (n_springs)
   // Sticking: k (N/m) per vertex (0 = free) and target positions (3n).
@@ -212,6 +233,7 @@ class Simulator {
   bool any_sticking_ = false;
   // Body.
   bool has_sdf_ = false;
+  uint64_t sdf_revision_ = 0;
   std::vector<float> sdf_values_;
   SdfGridView sdf_;
   // Scratch.

@@ -24,6 +24,7 @@
 #include <limits>
 #include <string>
 
+#include "sim/jacobi_step.hpp"
 #include "sim/simulator.hpp"
 
 namespace seamfit::sim {
@@ -32,6 +33,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+<<<<<<< HEAD
 // Vertices closer to the body than this (m) are projected out; anything above
 // is a legitimate barrier state (pressed contact settles at tiny gaps).
 constexpr double kProjectFloor = 1e-9;
@@ -45,6 +47,8 @@ constexpr double kLipschitz = 1.8;
 // Iterations between refreshes of the springs' share of the Jacobi blocks.
 constexpr int kPrecondRefresh = 4;
 
+=======
+>>>>>>> wt-cuda
 inline double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
@@ -141,8 +145,11 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   double omega = 1.0;
   bool fresh_seq = false;        // the Chebyshev sequence restarts at the next step
   std::vector<double> upd_norm;  // |dx| during warm-up, for the rho estimate
+<<<<<<< HEAD
   // Beyond this phi (a margin past the barrier's reach) vertices skip the SDF.
   const double far = params_.barrier_distance + 0.002;
+=======
+>>>>>>> wt-cuda
 
   int it = 0;
   for (;; ++it) {
@@ -188,15 +195,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
     double dn2 = 0;
 #pragma omp parallel for reduction(+ : dn2) schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
-      const Vec3 fv = {f[3 * v], f[3 * v + 1], f[3 * v + 2]};
-      Vec3 dv;
-      Sym3 Dv = D[v];
-      if (!sym3_solve_spd(Dv, fv, dv)) {
-        const double tr = std::fabs(Dv.xx) + std::fabs(Dv.yy) + std::fabs(Dv.zz);
-        Dv += sym3_identity(1e-6 * tr + 1e-12);
-        if (!sym3_solve_spd(Dv, fv, dv)) dv = make_vec3(0, 0, 0);
-      }
-      dv = alpha * dv;
+      const Vec3 dv = jacobi_direction(D[v], {f[3 * v], f[3 * v + 1], f[3 * v + 2]}, alpha);
       d[3 * v] = dv.x;
       d[3 * v + 1] = dv.y;
       d[3 * v + 2] = dv.z;
@@ -237,15 +236,13 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
     } else {
       omega = 4.0 / (4.0 - rho * rho * omega);
     }
-    // Chebyshev combination and the barrier-safe step: a vertex may close at
-    // most half its gap along the SDF normal, and never moves further than
-    // its gap or kFreeStep; a step that still lands too close (curved or
-    // creased body) slides back out to half the old gap, or is dropped for
-    // that vertex together with its momentum.
+    // Chebyshev combination and the barrier-safe step (sim/jacobi_step.hpp).
     int rejected = 0;
+    const bool smooth = params_.barrier_smooth;
 #pragma omp parallel for reduction(+ : rejected) schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
       const Vec3 xo = {xc[3 * v], xc[3 * v + 1], xc[3 * v + 2]};
+<<<<<<< HEAD
       Vec3 mom = {xc[3 * v] - xp[3 * v], xc[3 * v + 1] - xp[3 * v + 1], xc[3 * v + 2] - xp[3 * v + 2]};
       if (st.momentum_restart == 2 && f[3 * v] * mom.x + f[3 * v + 1] * mom.y + f[3 * v + 2] * mom.z < 0)
         mom = make_vec3(0, 0, 0);
@@ -278,6 +275,18 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
       xp[3 * v] = stay ? xn.x : xo.x;
       xp[3 * v + 1] = stay ? xn.y : xo.y;
       xp[3 * v + 2] = stay ? xn.z : xo.z;
+=======
+      const Vec3 xo_prev = {xp[3 * v], xp[3 * v + 1], xp[3 * v + 2]};
+      const Vec3 dv = {d[3 * v], d[3 * v + 1], d[3 * v + 2]};
+      SdfSample s = bar ? S[v] : SdfSample{};
+      Vec3 xn;
+      if (chebyshev_safe_step(xo, xo_prev, dv, omega, bar, sdf_, smooth, s, xn)) ++rejected;
+      if (bar) S[v] = s;
+      // x_{k-1} becomes x_k (a dropped step thereby drops its momentum too).
+      xp[3 * v] = xo.x;
+      xp[3 * v + 1] = xo.y;
+      xp[3 * v + 2] = xo.z;
+>>>>>>> wt-cuda
       xc[3 * v] = xn.x;
       xc[3 * v + 1] = xn.y;
       xc[3 * v + 2] = xn.z;

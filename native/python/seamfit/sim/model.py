@@ -14,7 +14,7 @@ from typing import Any, Callable, Optional
 import numpy as np
 
 from .._native import core
-from ..errors import SolveError
+from ..errors import DeviceError, SolveError
 
 # Spring stiffness of a regular triangle lattice with edge a and springs
 # Y/a: its plane-stress 2D Young's modulus is 2 Y / (sqrt(3) a), so a fabric of
@@ -81,6 +81,7 @@ class SimSettings:
     history_every: int = 10
     threads: int = 0                   # OpenMP threads, 0 = automatic
     momentum_restart: int = 0          # Chebyshev: 0 energy checks only, 1 global, 2 per-vertex gradient restart
+    device: str = "cpu"                # where solves run: "cpu" or "cuda" (Chebyshev only; docs/gpu.md)
     # Dressing stages (see Simulator.drape).
     sew_first: bool = True             # stage 1: close the seams with gravity off
     sew_stage_tolerance: float = 1e-2
@@ -105,6 +106,10 @@ class SimSettings:
             raise SolveError("barrier_distance must be > 0")
         if self.max_iterations < 0 or self.newton_max_iterations < 0 or self.polish_iterations < 0:
             raise SolveError("max_iterations must be >= 0")
+        if self.device not in ("cpu", "cuda"):
+            raise SolveError(f"unknown device {self.device!r} (cpu or cuda)")
+        if self.device == "cuda" and self.method != "chebyshev":
+            raise SolveError("the newton solver runs on the CPU only; use method chebyshev on device cuda")
 
 
 @dataclass
@@ -174,6 +179,7 @@ class Simulator:
         if self.x0 is not None and len(self.x0) != len(uv):
             raise SolveError(f"mesh x0 has {len(self.x0)} rows for {len(uv)} vertices")
         self._core = core().Simulator(self.p, tris, sew, core().SimParams())
+        self._gpu = None
         # Y from the tensile stiffness and the mean rest edge length (constant
         # afterwards, so d/dp does not see it).
         self.mean_edge = float(np.mean(self._core.rest_lengths))
@@ -292,6 +298,26 @@ class Simulator:
         return self._core.project_outside(np.asarray(x, dtype=np.float64), 1e-9, gap)
 
     # --------------------------------------------------------------- solving
+    def cuda(self):
+        """The GPU mirror of this simulator (seamfit.sim.cuda.CudaSimulator),
+        made on first use; raises DeviceError when no GPU can run it."""
+        if self._gpu is None:
+            from .cuda import CudaSimulator
+            self._gpu = CudaSimulator(self)
+        return self._gpu
+
+    def _run(self, x, st, progress, device=None):
+        """One core solve on the CPU or, for device "cuda", on the GPU mirror
+        (synchronized with the current parameters first)."""
+        dev = device or self.settings.device
+        if dev == "cpu":
+            return self._core.solve(x, st, progress)
+        if dev != "cuda":
+            raise DeviceError(f"unknown device {dev!r} (cpu or cuda)")
+        if st.method != 0:
+            raise SolveError("the newton solver runs on the CPU only; use method chebyshev on device cuda")
+        return self.cuda().solve(x, settings=st, progress=progress)
+
     def _settings(self, tolerance=None, max_iterations=None, method=None, max_seconds=None, smoothing=0):
         """Native solver settings; max_iterations=None means the method's budget."""
         s = self.settings
@@ -315,17 +341,19 @@ class Simulator:
 
     def solve(self, x0=None, *, tolerance=None, max_iterations=None, method=None,
               progress: Optional[Callable[[int, float], bool]] = None,
-              gravity_scale: float = 1.0, sewing_scale: float = 1.0) -> DrapeResult:
-        """One quasistatic solve from x0 (default: the mesh's x0)."""
+              gravity_scale: float = 1.0, sewing_scale: float = 1.0, device: Optional[str] = None) -> DrapeResult:
+        """One quasistatic solve from x0 (default: the mesh's x0), on
+        `device` ("cpu" or "cuda"; default settings.device)."""
         x = self._start(x0)
         self._apply_params(gravity_scale, sewing_scale)
         try:
-            x, rep = self._core.solve(x, self._settings(tolerance, max_iterations, method), progress)
+            x, rep = self._run(x, self._settings(tolerance, max_iterations, method), progress, device)
         finally:
             self._apply_params()
         return self._result(x, [dict(rep, stage="solve")])
 
-    def drape(self, x0=None, progress: Optional[Callable[[int, float], bool]] = None) -> DrapeResult:
+    def drape(self, x0=None, progress: Optional[Callable[[int, float], bool]] = None,
+              device: Optional[str] = None) -> DrapeResult:
         """Dress the garment: close the seams with gravity off, then settle under gravity.
 
         Stages, each reported in the result:
@@ -340,6 +368,7 @@ class Simulator:
         progress(iteration, residual) is called every settings.progress_every
         iterations, counting over all stages; returning False cancels (reported
         in the result, never raised).
+        device: "cpu" or "cuda" (default settings.device).
         """
         s = self.settings
         x = self._start(x0)
@@ -353,12 +382,12 @@ class Simulator:
             def seams_closed(xx):
                 return float(np.max(self.sewing_gaps(xx))) * 1000.0 <= s.sew_stage_gap_mm
             x, rep = self._staged(x, "sew", s.method, s.sew_stage_tolerance, None, relay, offset,
-                                  gravity_scale=0.0, done=seams_closed)
+                                  gravity_scale=0.0, done=seams_closed, device=device)
             stages.append(rep)
             if rep["cancelled"]:
                 return self._result(x, stages)
         x, rep = self._staged(x, "settle", s.method, s.tolerance, None, relay, offset,
-                              stagnation=s.method == "chebyshev")
+                              stagnation=s.method == "chebyshev", device=device)
         stages.append(rep)
         if (s.method == "chebyshev" and s.polish and not rep["converged"] and not rep["cancelled"]
                 and s.polish_iterations > 0):
@@ -368,7 +397,7 @@ class Simulator:
         return self._result(x, stages)
 
     def _staged(self, x, stage, method, tolerance, max_iterations, relay, offset, gravity_scale=1.0,
-                done=None, stagnation=False, smoothing=0):
+                done=None, stagnation=False, smoothing=0, device=None):
         """One stage, run in chunks (Chebyshev) so it can stop on a condition
         between chunks; the chunk reports are merged into one."""
         s = self.settings
@@ -387,7 +416,9 @@ class Simulator:
                 left = 0.0
                 if s.max_seconds > 0:
                     left = max(s.max_seconds - (time.perf_counter() - t_start), 1e-3)
-                x, rep = self._core.solve(x, self._settings(tolerance, n, method, left, smoothing), relay)
+                st = self._settings(tolerance, n, method, left, smoothing)
+                x, rep = (self._core.solve(x, st, relay) if method == "newton"
+                          else self._run(x, st, relay, device))
                 total += rep["iterations"]
                 offset[0] += rep["iterations"]
                 merged = self._merge(merged, rep, stage)

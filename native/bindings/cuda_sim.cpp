@@ -1,0 +1,211 @@
+// Python bindings of the CUDA simulator backend (seamfit._core.CudaSimulator).
+// Present only in builds with the CUDA backend; seamfit.sim.cuda says why it
+// cannot run otherwise.
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include "bindings.hpp"
+
+#ifdef SEAMFIT_WITH_CUDA
+#include <atomic>
+#include <string>
+
+#include "sim/simulator.hpp"
+#include "sim_gpu.hpp"
+#endif
+
+namespace py = pybind11;
+
+namespace seamfit::bindings {
+
+#ifdef SEAMFIT_WITH_CUDA
+namespace {
+
+using seamfit::cuda::CudaError;
+using seamfit::cuda::GpuOptions;
+using seamfit::cuda::SimGpu;
+using seamfit::sim::EnergyTerms;
+using seamfit::sim::SimError;
+using seamfit::sim::Simulator;
+using seamfit::sim::SolveReport;
+using seamfit::sim::SolveSettings;
+using DArr = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+void require_x(const SimGpu& g, const py::array& x) {
+  const int n = g.simulator().n_vertices();
+  if (x.ndim() != 2 || x.shape(0) != n || x.shape(1) != 3)
+    throw SimError("x must have shape (" + std::to_string(n) + ", 3)");
+}
+
+void require_outside(const SimGpu& g, const double* x) {
+  double phi = 0;
+  const int v = g.simulator().first_inside(x, &phi);
+  if (v >= 0)
+    throw SimError("vertex " + std::to_string(v) + " is inside the body (phi = " + std::to_string(phi * 1000.0) +
+                   " mm): the barrier is undefined there; call project_outside first");
+}
+
+py::dict terms_dict(const EnergyTerms& t) {
+  py::dict d;
+  d["stretch"] = t.stretch;
+  d["sewing"] = t.sewing;
+  d["bending"] = t.bending;
+  d["gravity"] = t.gravity;
+  d["sticking"] = t.sticking;
+  d["barrier"] = t.barrier;
+  return d;
+}
+
+// The keys of Simulator.solve's report (sim.cpp), plus the device.
+py::dict report_dict(const SolveReport& r, const SimGpu& g) {
+  py::dict d;
+  d["iterations"] = r.iterations;
+  d["seconds"] = r.seconds;
+  d["residual"] = r.residual;
+  d["energy"] = r.energy;
+  d["converged"] = r.converged;
+  d["cancelled"] = r.cancelled;
+  d["restarts"] = r.restarts;
+  d["projections"] = r.projections;
+  d["rejected_steps"] = r.rejected_steps;
+  d["final_rho"] = r.final_rho;
+  d["final_alpha"] = r.final_alpha;
+  d["message"] = r.message;
+  d["history_iteration"] = r.hist_iter;
+  d["history_seconds"] = r.hist_seconds;
+  d["history_residual"] = r.hist_residual;
+  d["device"] = g.device_name();
+  return d;
+}
+
+}  // namespace
+#endif
+
+void bind_cuda_sim(py::module_& m) {
+#ifdef SEAMFIT_WITH_CUDA
+  py::register_local_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const CudaError& e) {
+      py::object cls = py::module_::import("seamfit.errors").attr("DeviceError");
+      PyErr_SetString(cls.ptr(), e.what());
+    }
+  });
+
+  py::class_<SimGpu>(m, "CudaSimulator",
+                     "GPU mirror of a Simulator: force, energy and the Chebyshev solve on a CUDA device.")
+      .def(py::init([](const Simulator& s, int device, int block, int lanes, int batch, bool use_graph,
+                       bool float_rest, bool fuse_control) {
+             GpuOptions o;
+             o.device = device;
+             o.block = block;
+             o.lanes = lanes;
+             o.batch = batch;
+             o.use_graph = use_graph;
+             o.float_rest = float_rest;
+             o.fuse_control = fuse_control;
+             return new SimGpu(s, o);
+           }),
+           py::arg("simulator"), py::arg("device") = 0, py::arg("block") = 128, py::arg("lanes") = 0,
+           py::arg("batch") = 32,
+           py::arg("use_graph") = true, py::arg("float_rest") = false, py::arg("fuse_control") = false,
+           py::keep_alive<1, 2>())  // the CPU simulator must outlive its GPU copy
+      .def("sync", &SimGpu::sync,
+           "Re-read parameters, rest state, sticking and (if it changed) the body from the CPU simulator.")
+      .def_property_readonly("device_name", &SimGpu::device_name)
+      .def_property_readonly("device_bytes", &SimGpu::device_bytes)
+      .def_property_readonly("float_rest", [](const SimGpu& g) { return g.options().float_rest; })
+      .def_property_readonly("batch", [](const SimGpu& g) { return g.options().batch; })
+      .def_property_readonly("lanes", &SimGpu::lanes, "threads per vertex in the force evaluation")
+      .def("energy",
+           [](SimGpu& g, DArr x) {
+             require_x(g, x);
+             EnergyTerms t;
+             double e;
+             {
+               py::gil_scoped_release nogil;
+               e = g.energy(x.data(), &t);
+             }
+             return py::make_tuple(e, terms_dict(t));
+           })
+      .def("force",
+           [](SimGpu& g, DArr x) {
+             require_x(g, x);
+             require_outside(g, x.data());
+             py::array_t<double> f({py::ssize_t(g.simulator().n_vertices()), py::ssize_t(3)});
+             double* fp = f.mutable_data();
+             {
+               py::gil_scoped_release nogil;
+               g.force(x.data(), fp, nullptr);
+             }
+             return f;
+           })
+      .def("solve",
+           [](SimGpu& g, DArr x0, const SolveSettings& st, py::object progress) {
+             require_x(g, x0);
+             const int n = g.simulator().n_vertices();
+             py::array_t<double> x({py::ssize_t(n), py::ssize_t(3)});
+             std::copy(x0.data(), x0.data() + 3 * size_t(n), x.mutable_data());
+             double* xp = x.mutable_data();
+             seamfit::sim::ProgressFn fn;
+             std::atomic<bool> cancel{false};
+             bool py_error = false;
+             py::object err_type, err_value, err_tb;
+             if (!progress.is_none()) {
+               // Called with the GIL released, between batches; a raising
+               // callback cancels the solve and re-raises afterwards.
+               fn = [&](int it, double res) -> bool {
+                 py::gil_scoped_acquire gil;
+                 try {
+                   py::object r = progress(it, res);
+                   return r.is_none() || r.cast<bool>();
+                 } catch (py::error_already_set& e) {
+                   py_error = true;
+                   e.restore();
+                   PyObject *t, *v, *tb;
+                   PyErr_Fetch(&t, &v, &tb);
+                   err_type = py::reinterpret_steal<py::object>(t);
+                   err_value = py::reinterpret_steal<py::object>(v);
+                   err_tb = py::reinterpret_steal<py::object>(tb);
+                   return false;
+                 }
+               };
+             }
+             SolveReport rep;
+             {
+               py::gil_scoped_release nogil;
+               rep = g.solve(xp, st, fn, &cancel);
+             }
+             if (py_error) {
+               PyErr_Restore(err_type.release().ptr(), err_value.release().ptr(), err_tb.release().ptr());
+               throw py::error_already_set();
+             }
+             return py::make_tuple(x, report_dict(rep, g));
+           },
+           py::arg("x"), py::arg("settings"), py::arg("progress") = py::none())
+      .def("time_kernels",
+           [](SimGpu& g, DArr x, int reps) {
+             require_x(g, x);
+             seamfit::cuda::KernelTimes t;
+             {
+               py::gil_scoped_release nogil;
+               t = g.time_kernels(x.data(), reps);
+             }
+             py::dict d;
+             d["eval_us"] = t.eval_us;
+             d["step_us"] = t.step_us;
+             d["slot_us"] = t.slot_us;
+             d["eval_bytes"] = t.eval_bytes;
+             d["step_bytes"] = t.step_bytes;
+             return d;
+           },
+           py::arg("x"), py::arg("reps") = 200,
+           "Device microseconds of each kernel of an iteration (median of graph replays) and the unique bytes "
+           "each must move.");
+#else
+  (void)m;
+#endif
+}
+
+}  // namespace seamfit::bindings

@@ -1,0 +1,98 @@
+// The per-vertex rules of the Chebyshev-accelerated block-Jacobi iteration
+// (solvers.cpp), host-device so the CPU solver and the CUDA backend take the
+// same step: the block-Jacobi direction, the Chebyshev combination and the
+// barrier-safe step against the body.
+#pragma once
+#include "body/sdf_grid.hpp"
+#include "common/hd.hpp"
+#include "common/vec3.hpp"
+#include "sim/math.hpp"
+#include "sim/terms/sdf_smooth.hpp"
+
+namespace seamfit::sim {
+
+// Vertices closer to the body than this (m) are projected out; anything above
+// is a legitimate barrier state (pressed contact settles at tiny gaps).
+constexpr double kProjectFloor = 1e-9;
+// A vertex step may always be this long (m), thinner than any body part, so a
+// bounded step cannot jump through the body between two outside states.
+constexpr double kFreeStep = 0.005;
+// A step may close at most this fraction of the gap along the SDF normal.
+constexpr double kStepGapFraction = 0.5;
+
+// std::max semantics (a NaN first argument is returned), usable in kernels.
+SF_HD double step_max(double a, double b) { return a < b ? b : a; }
+
+// The barrier's reading of the body: C2 B-spline or the grid's trilinear field.
+SF_HD SdfSample barrier_field(const SdfGridView& g, bool smooth, Vec3 p) {
+  if (smooth) {
+    const SdfSample2 s = sdf_sample_smooth<false>(g, p);
+    SdfSample r;
+    r.phi = s.phi;
+    r.grad = s.grad;
+    return r;
+  }
+  return sdf_sample(g, p);
+}
+
+// Block-Jacobi direction alpha D^{-1} f; a block that is not numerically
+// positive definite gets a small diagonal shift, and a vertex whose block is
+// still singular does not move.
+SF_HD Vec3 jacobi_direction(Sym3 D, Vec3 f, double alpha) {
+  Vec3 d;
+  if (!sym3_solve_spd(D, f, d)) {
+    const double tr = fabs(D.xx) + fabs(D.yy) + fabs(D.zz);
+    D += sym3_identity(1e-6 * tr + 1e-12);
+    if (!sym3_solve_spd(D, f, d)) d = make_vec3(0, 0, 0);
+  }
+  return alpha * d;
+}
+
+// Chebyshev combination x_{k+1} = x_{k-1} + omega (x_k + d - x_{k-1}) written
+// as a step from xo = x_k, then the barrier-safe step (bar: a body is
+// present). s: the field sample at xo on entry, at the returned position on
+// exit. Returns true when the step was dropped for this vertex (it stays, and
+// its momentum is dropped with it since x_{k-1} becomes xo).
+//
+// A vertex may close at most half its gap along the SDF normal, and never
+// moves further than its gap or kFreeStep; a step that still lands too close
+// (curved or creased body) slides back out to half the old gap, or is dropped.
+SF_HD bool chebyshev_safe_step(Vec3 xo, Vec3 xprev, Vec3 d, double omega, bool bar, const SdfGridView& g,
+                               bool smooth, SdfSample& s, Vec3& xn) {
+  Vec3 dv = omega * d + (omega - 1.0) * (xo - xprev);
+  xn = xo + dv;
+  if (!bar) return false;
+  const double gn = norm(s.grad);
+  if (gn > 1e-12 && s.phi > 0) {
+    const Vec3 nrm = (1.0 / gn) * s.grad;
+    const double dn = dot(dv, nrm), lim = -kStepGapFraction * s.phi;
+    if (dn < lim) dv -= (dn - lim) * nrm;
+  }
+  const double len = norm(dv), cap = step_max(0.9 * s.phi, kFreeStep);
+  if (len > cap) dv = (cap / len) * dv;
+  xn = xo + dv;
+  SdfSample sn = barrier_field(g, smooth, xn);
+  // Sliding along the body: where the body curves away from the tangent plane
+  // (or creases), a step can close more than half the gap although its normal
+  // part may not; such a step is pushed back out along the field to its linear
+  // prediction phi + grad.dv (at least half the old gap), a few Newton steps on
+  // phi. Failing that the vertex stays. Steps that keep half the gap are left
+  // alone (pure descent).
+  const double want = step_max(s.phi + dot(s.grad, dv), 0.5 * s.phi);
+  for (int h = 0; h < 3 && sn.phi < 0.5 * s.phi && sn.phi < want; ++h) {
+    const double g2 = norm2(sn.grad);
+    if (!(g2 > 1e-12)) break;
+    xn += ((want - sn.phi) / g2) * sn.grad;
+    sn = barrier_field(g, smooth, xn);
+  }
+  bool rejected = false;
+  if (sn.phi < 0.25 * s.phi || !(sn.phi > kProjectFloor) || norm(xn - xo) > 2.0 * step_max(len, 1e-300)) {
+    xn = xo;
+    sn = s;
+    rejected = true;
+  }
+  s = sn;
+  return rejected;
+}
+
+}  // namespace seamfit::sim

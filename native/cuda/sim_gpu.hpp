@@ -1,0 +1,75 @@
+// CUDA backend of the quasistatic simulator: a device mirror of a built
+// seamfit::sim::Simulator (topology, rest state, body SDF) and the
+// Chebyshev-accelerated block-Jacobi solve on the GPU with the CPU solver's
+// rules. State stays on the device across iterations; the host looks in once
+// per batch of iterations (a CUDA graph). Host-only interface: no CUDA types.
+#pragma once
+#include <atomic>
+#include <cstddef>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "sim/simulator.hpp"
+
+namespace seamfit::cuda {
+
+// A CUDA runtime failure or a missing device (seamfit.errors.DeviceError).
+struct CudaError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct GpuOptions {
+  int device = 0;
+  int block = 128;           // threads per block of the per-vertex kernels (32, 64, 128 or 256)
+  int lanes = 0;             // threads per vertex in the evaluation (1, 2, 4 or 8; 0: 2 if that fits one wave, else 1)
+  int batch = 32;            // iterations per graph launch between host looks (even)
+  bool use_graph = true;     // false: plain launches (for measuring launch overhead)
+  bool float_rest = false;   // store rest lengths, shirring, Q, masses and barrier weights as float32
+  bool fuse_control = false;  // the control step in the evaluation's last block, not a kernel of its own
+};
+
+// Per-kernel device times (microseconds) and their byte counts.
+struct KernelTimes {
+  double eval_us = 0, step_us = 0, slot_us = 0;  // eval: with the control step; slot: step + eval + control
+  double eval_bytes = 0, step_bytes = 0;                       // unique bytes each kernel must move
+};
+
+class SimGpu {
+ public:
+  // Copies the simulator's topology, rest state, parameters and body. `sim`
+  // must outlive this object (sync() reads it again).
+  SimGpu(const sim::Simulator& sim, const GpuOptions& opt = GpuOptions());
+  ~SimGpu();
+  SimGpu(const SimGpu&) = delete;
+  SimGpu& operator=(const SimGpu&) = delete;
+
+  // Re-read parameters, rest state and sticking (and the body, if it changed)
+  // from the simulator: call after set_params / set_pattern / set_shirring /
+  // set_sticking / set_sdf on it.
+  void sync();
+
+  // f = -dE/dx (3n) at x; returns the energy (+inf with a vertex inside).
+  double force(const double* x, double* f, sim::EnergyTerms* terms);
+  double energy(const double* x, sim::EnergyTerms* terms);
+  // The Chebyshev solve of Simulator::solve (method 0) on the device.
+  sim::SolveReport solve(double* x, const sim::SolveSettings& s, const sim::ProgressFn& progress,
+                         const std::atomic<bool>* cancel = nullptr);
+
+  // Device times of the iteration's kernels at x, median of `reps` graph replays.
+  KernelTimes time_kernels(const double* x, int reps);
+
+  const GpuOptions& options() const { return opt_; }
+  const sim::Simulator& simulator() const;
+  int lanes() const;  // threads per vertex in the evaluation, as chosen
+  std::string device_name() const;
+  size_t device_bytes() const;
+
+  struct Impl;
+
+ private:
+  GpuOptions opt_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace seamfit::cuda

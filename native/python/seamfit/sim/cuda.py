@@ -1,0 +1,117 @@
+"""GPU (CUDA) backend of the quasistatic simulator.
+
+``CudaSimulator(simulator)`` copies a built simulator (topology, rest state,
+parameters, body SDF) to a CUDA device and runs its force, energy and the
+Chebyshev-accelerated block-Jacobi solve there, with the CPU solver's rules and
+the same energy functions (see docs/gpu.md). The CPU simulator stays the owner
+of the model: after changing it (parameters, pattern, shirring, sticking,
+body) call ``sync()``, which ``solve`` does by default.
+
+Without a usable GPU the constructor raises seamfit.errors.DeviceError saying why.
+"""
+from __future__ import annotations
+
+from typing import Callable, Optional
+
+import numpy as np
+
+from .._native import core
+from ..errors import DeviceError
+
+
+def cuda_available() -> tuple[bool, str]:
+    """(usable, why not) for the CUDA backend on this machine."""
+    c = core()
+    if not getattr(c, "built_with_cuda", False) or not hasattr(c, "CudaSimulator"):
+        return False, "this seamfit build has no CUDA backend (it was built without nvcc)"
+    if c.cuda_device_count() == 0:
+        return False, "no CUDA GPU or driver is present on this machine"
+    return True, ""
+
+
+def require_cuda() -> None:
+    ok, why = cuda_available()
+    if not ok:
+        raise DeviceError(f"device cuda: {why}")
+
+
+class CudaSimulator:
+    """GPU mirror of a simulator.
+
+    simulator: a seamfit.sim.Simulator (its settings supply the solver
+        controls) or a seamfit._core.Simulator.
+    float_rest: store rest lengths, shirring, the bending matrix, masses and
+        barrier weights as float32 (arithmetic stays float64); see docs/gpu.md
+        for what that costs in accuracy.
+    batch: iterations per graph launch between two looks of the host (even).
+    block, lanes: threads per block, and threads per vertex in the force
+        evaluation (0: 2 while that keeps it in one wave of resident blocks, else 1);
+        tuning, see docs/gpu_results.md.
+    fuse_control: run the solver's control step in the last block of the force
+        evaluation instead of a kernel of its own (same rules; measured slower).
+    """
+
+    def __init__(self, simulator, *, device: int = 0, batch: int = 32, block: int = 128, lanes: int = 0,
+                 use_graph: bool = True, float_rest: bool = False, fuse_control: bool = False):
+        require_cuda()
+        self.simulator = simulator
+        self._core_sim = simulator.core if hasattr(simulator, "core") else simulator
+        self._gpu = core().CudaSimulator(self._core_sim, device=device, block=block, lanes=lanes, batch=batch,
+                                         use_graph=use_graph, float_rest=float_rest, fuse_control=fuse_control)
+
+    @property
+    def device_name(self) -> str:
+        return self._gpu.device_name
+
+    @property
+    def lanes(self) -> int:
+        return self._gpu.lanes
+
+    @property
+    def device_bytes(self) -> int:
+        return self._gpu.device_bytes
+
+    def sync(self) -> None:
+        """Re-read parameters, rest state, sticking and the body from the CPU simulator."""
+        self._gpu.sync()
+
+    def energy(self, x) -> tuple[float, dict[str, float]]:
+        return self._gpu.energy(np.asarray(x, dtype=np.float64))
+
+    def force(self, x) -> np.ndarray:
+        """f = -dE/dx, shape (N, 3), evaluated on the GPU."""
+        return self._gpu.force(np.asarray(x, dtype=np.float64))
+
+    def residual(self, x) -> float:
+        return float(np.linalg.norm(self.force(x)) / self._core_sim.weight_norm)
+
+    def _settings(self, tolerance, max_iterations):
+        sim = self.simulator
+        if hasattr(sim, "_settings"):
+            return sim._settings(tolerance, max_iterations, "chebyshev")
+        st = core().SolveSettings()
+        if tolerance is not None:
+            st.tolerance = float(tolerance)
+        if max_iterations is not None:
+            st.max_iterations = int(max_iterations)
+        return st
+
+    def solve(self, x0, tolerance: Optional[float] = None, max_iterations: Optional[int] = None, *,
+              settings=None, progress: Optional[Callable[[int, float], bool]] = None,
+              sync: bool = True) -> tuple[np.ndarray, dict]:
+        """Chebyshev solve from x0 (N, 3) on the GPU: (x, report), the report
+        with the keys of the CPU solve's (plus 'device').
+
+        settings: a seamfit._core.SolveSettings (default: the simulator's, with
+        tolerance / max_iterations overriding). progress(iteration, residual) is
+        called between batches of iterations, at most once per
+        settings.progress_every iterations; returning False cancels.
+        """
+        st = settings if settings is not None else self._settings(tolerance, max_iterations)
+        if sync:
+            self._gpu.sync()
+        return self._gpu.solve(np.asarray(x0, dtype=np.float64).reshape(-1, 3), st, progress)
+
+    def time_kernels(self, x, reps: int = 200) -> dict:
+        """Device microseconds per kernel of an iteration at x, and the bytes each must move."""
+        return self._gpu.time_kernels(np.asarray(x, dtype=np.float64), reps)

@@ -1,0 +1,289 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The add-on's only door to seamfit. No bpy here: these functions run in worker threads
+on plain data captured from the scene on the main thread.
+"""
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .cache import CACHE, digest
+
+
+class AddonError(Exception):
+    """A problem the user can fix, shown as is (like seamfit's own errors)."""
+
+
+def seamfit_module(name: str = ""):
+    """Import ``seamfit`` or one of its public modules with a readable failure."""
+    full = "seamfit" + (f".{name}" if name else "")
+    try:
+        return importlib.import_module(full)
+    except ImportError as exc:
+        raise AddonError(f"{full} is not available in the installed seamfit ({exc}); "
+                         "reinstall the seamfit extension") from exc
+
+
+def user_errors() -> tuple[type[BaseException], ...]:
+    """Exceptions whose message is meant for the user."""
+    try:
+        from seamfit.errors import SeamfitError
+        return (SeamfitError, AddonError)
+    except ImportError:
+        return (AddonError,)
+
+
+def seamfit_version() -> str:
+    try:
+        import seamfit
+        return str(seamfit.__version__)
+    except ImportError as exc:
+        return f"not available ({exc})"
+
+
+# ---------------------------------------------------------------------------
+# Patterns
+
+def load_pattern(path: str):
+    pat = seamfit_module("pattern")
+    loader = getattr(pat, "load_pattern", None)
+    if loader is not None:   # sewpat-1 or GarmentCode specification
+        return loader(path)
+    return pat.read_sewpat(path)
+
+
+def check_pattern(pattern) -> list[str]:
+    """Refuse a broken pattern (raises seamfit's PatternError); return its warnings."""
+    pat = seamfit_module("pattern")
+    validate = getattr(pat, "validate_pattern", None)
+    if validate is None:
+        return []
+    report = validate(pattern)
+    errors = list(getattr(report, "errors", []) or [])
+    if errors:
+        check = getattr(pat, "check_pattern", None)
+        if check is not None:
+            check(pattern)
+        from seamfit.errors import PatternError
+        raise PatternError("; ".join(str(e) for e in errors))
+    return [str(w) for w in (getattr(report, "warnings", []) or [])]
+
+
+def pattern_to_json(pattern) -> str:
+    sewpat = seamfit_module("pattern.sewpat")
+    return json.dumps(sewpat.pattern_to_dict(pattern), sort_keys=True)
+
+
+def pattern_from_json(text: str, source: str = "<blend>"):
+    sewpat = seamfit_module("pattern.sewpat")
+    return sewpat.pattern_from_dict(json.loads(text), source)
+
+
+def save_pattern(pattern, path: str) -> None:
+    """sewpat-1, written atomically by seamfit."""
+    pat = seamfit_module("pattern")
+    saver = getattr(pat, "save_pattern", None)
+    if saver is not None:
+        saver(pattern, path)
+    else:
+        pat.write_sewpat(pattern, path)
+
+
+def save_svg(patterns: list, path: str, labels: list[str] | None = None) -> None:
+    pat = seamfit_module("pattern")
+    writer = getattr(pat, "write_svg", None)
+    if writer is None:
+        raise AddonError("SVG export needs seamfit.pattern.write_svg, which this seamfit does not have yet")
+    if labels is not None:
+        writer(path, patterns, labels=labels)
+    else:
+        writer(path, patterns)
+
+
+def side_points_cm(pattern, side) -> np.ndarray:
+    from seamfit.pattern import range_indices
+    panel = pattern.panel(side.panel)
+    return panel.outline_cm[range_indices(side.range, panel.n_vertices)]
+
+
+def stitch_lengths_cm(pattern, stitch) -> tuple[float, float]:
+    """Lengths of both sides, as the file gives them or measured along the outline."""
+    from seamfit.pattern.model import polyline_length
+    la = stitch.length_a_cm
+    lb = stitch.length_b_cm
+    if la is None:
+        la = polyline_length(side_points_cm(pattern, stitch.a))
+    if lb is None:
+        lb = polyline_length(side_points_cm(pattern, stitch.b))
+    return float(la), float(lb)
+
+
+def stitch_pairs_world(pattern, stitch, spacing_m: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+    """Matching points along both sides of a stitch, in world metres, for display:
+    both sides sampled at the same fractions of their length (side b runs backwards
+    for a 'reversed' stitch)."""
+    pa, pb = pattern.panel(stitch.a.panel), pattern.panel(stitch.b.panel)
+    a = pa.placement.to_world(side_points_cm(pattern, stitch.a))
+    b = pb.placement.to_world(side_points_cm(pattern, stitch.b))
+    if stitch.orientation == "reversed":
+        b = b[::-1]
+    length = max(_polylen(a), _polylen(b))
+    count = max(2, int(np.ceil(length / spacing_m)) + 1)
+    t = np.linspace(0.0, 1.0, count)
+    return _resample(a, t), _resample(b, t)
+
+
+def _polylen(p: np.ndarray) -> float:
+    return float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1))) if len(p) > 1 else 0.0
+
+
+def _resample(p: np.ndarray, t: np.ndarray) -> np.ndarray:
+    seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    if s[-1] <= 0:
+        return np.repeat(p[:1], len(t), axis=0)
+    s /= s[-1]
+    return np.stack([np.interp(t, s, p[:, k]) for k in range(p.shape[1])], axis=1)
+
+
+# ---------------------------------------------------------------------------
+# Bodies
+
+@dataclass
+class BodyInput:
+    """A body mesh captured from the scene: world coordinates in metres, triangles."""
+    name: str
+    vertices: np.ndarray
+    triangles: np.ndarray
+    key: str = ""
+
+    def __post_init__(self):
+        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
+        self.triangles = np.ascontiguousarray(self.triangles, dtype=np.int64)
+        if not self.key:
+            self.key = digest(self.vertices, self.triangles)
+
+
+def _body_dir() -> Path:
+    d = Path(tempfile.gettempdir()) / f"seamfit-bodies-{os.getuid() if hasattr(os, 'getuid') else 0}"
+    d.mkdir(parents=True, exist_ok=True)
+    return d
+
+
+def _write_obj(path: Path, v: np.ndarray, f: np.ndarray) -> None:
+    # seamfit reads bodies from files; a temporary OBJ named by the content hash
+    # hands it the scene's mesh exactly (17 significant digits round-trip float64).
+    lines = ["# body exported by the seamfit Blender add-on"]
+    lines += [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in v]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f]
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text("\n".join(lines) + "\n")
+    os.replace(tmp, path)
+
+
+def body_object(body: BodyInput):
+    """seamfit's body for the captured mesh (cached by content)."""
+    def make():
+        b = seamfit_module("body")
+        path = _body_dir() / f"{body.key}.obj"
+        if not path.exists():
+            _write_obj(path, body.vertices, body.triangles)
+        return b.load_body(str(path))
+    return CACHE.get("body", body.key, make)
+
+
+def body_report(body: BodyInput) -> dict:
+    """Validation messages and key measurements (cm) of a body."""
+    b = seamfit_module("body")
+    sb = body_object(body)
+    report = b.validate_body(sb)
+    errors = [str(e) for e in (getattr(report, "errors", None) or [])]
+    warnings = [str(w) for w in (getattr(report, "warnings", None) or [])]
+    measurements = {}
+    if not errors:
+        measurements = {k: float(v) for k, v in b.body_measurements(sb).items()}
+    return {"errors": errors, "warnings": warnings, "measurements": measurements}
+
+
+def body_sdf(body: BodyInput, settings: dict | None = None):
+    settings = dict(settings or {})
+    key = digest(body.key, settings)
+
+    def make():
+        b = seamfit_module("body")
+        return b.build_sdf(body_object(body), **settings)
+    return CACHE.get("sdf", key, make)
+
+
+# ---------------------------------------------------------------------------
+# Sewn mesh
+
+def sewn_mesh(pattern_json: str, edge_length_cm: float):
+    key = digest(pattern_json, round(float(edge_length_cm), 6))
+
+    def make():
+        m = seamfit_module("mesh")
+        return m.build_sewn_mesh(pattern_from_json(pattern_json), edge_length_cm=float(edge_length_cm))
+    return CACHE.get("mesh", key, make), key
+
+
+# ---------------------------------------------------------------------------
+# Device
+
+def device_status() -> dict:
+    """Which compute devices the installed seamfit can use."""
+    out = {"cuda_built": False, "cuda_devices": 0, "cuda_name": "", "error": ""}
+    try:
+        from seamfit import _native
+        core = _native.core()
+        out["cuda_built"] = bool(getattr(core, "built_with_cuda", False))
+        if out["cuda_built"]:
+            out["cuda_devices"] = int(core.cuda_device_count())
+            if out["cuda_devices"]:
+                out["cuda_name"] = str(core.cuda_device_name(0))
+    except Exception as exc:  # a broken install is shown, not raised, in a panel
+        out["error"] = str(exc)
+    return out
+
+
+# ---------------------------------------------------------------------------
+# Drape and grade (filled in as seamfit.sim and seamfit.opt provide them)
+
+@dataclass
+class RunInputs:
+    pattern_name: str
+    pattern_json: str
+    edge_length_cm: float
+    base: BodyInput
+    sim: dict = field(default_factory=dict)
+    target: BodyInput | None = None
+    strengths: dict = field(default_factory=dict)
+    opt: dict = field(default_factory=dict)
+    device: str = "auto"
+
+
+def stretch_ratio_per_vertex(uv_cm: np.ndarray, x: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Mean over the incident edges of |x_i - x_j| / |p_i - p_j| (the stretching ratio of
+    Wang 2018, section 6, shown in its Fig. 8)."""
+    p = np.zeros((len(uv_cm), 3))
+    p[:, :2] = 0.01 * np.asarray(uv_cm)
+    tri = np.asarray(triangles)
+    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    e = np.unique(np.sort(e, axis=1), axis=0)
+    rest = np.linalg.norm(p[e[:, 0]] - p[e[:, 1]], axis=1)
+    cur = np.linalg.norm(x[e[:, 0]] - x[e[:, 1]], axis=1)
+    ratio = np.where(rest > 0, cur / np.maximum(rest, 1e-12), 1.0)
+    acc = np.zeros(len(x))
+    cnt = np.zeros(len(x))
+    np.add.at(acc, e[:, 0], ratio)
+    np.add.at(acc, e[:, 1], ratio)
+    np.add.at(cnt, e[:, 0], 1)
+    np.add.at(cnt, e[:, 1], 1)
+    return np.where(cnt > 0, acc / np.maximum(cnt, 1), 1.0)

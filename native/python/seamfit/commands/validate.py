@@ -1,0 +1,130 @@
+"""``seamfit validate FILE``: check a pattern or a body file and summarise it."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ..errors import BodyError, SeamfitError
+
+BODY_SUFFIXES = (".obj", ".ply")
+
+EPILOG = """\
+patterns (.json): sewpat-1 files and GarmentCode *_specification.json files; the format
+  is detected from the content. Checks: closed outlines with >= 3 points (a last point
+  repeating the first is a fixable warning), no zero-length segments, no self-intersections,
+  declared orientation matches the outline, edge curves well-formed and finite, no
+  degenerate edges (start == end), node/corner/landmark indices inside the outline,
+  placement finite and a rotation, stitch sides on existing panels with ranges in bounds,
+  non-gathered stitch sides of equal length within max(--seam-tolerance, --seam-tolerance-rel
+  x longer side), and plausible units (cm, not mm or m). See docs/formats.md.
+bodies (.obj, .ply): loaded and checked by seamfit.body.
+
+exit status: 0 valid (warnings allowed unless --strict), 1 validation errors found
+  (or warnings with --strict), 2 the file could not be read or is not a pattern/body.
+"""
+
+
+def register(subparsers) -> None:
+    from ..pattern.validate import SEAM_TOLERANCE_CM, SEAM_TOLERANCE_REL
+    p = subparsers.add_parser(
+        "validate", help="check a pattern (sewpat-1 / GarmentCode) or body (.obj/.ply) file",
+        description="Check a pattern or body file and print a summary, or the problems found.",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("file", metavar="FILE", help="pattern .json (sewpat-1 or GarmentCode "
+                   "*_specification.json) or body mesh .obj/.ply")
+    p.add_argument("--seam-tolerance", type=float, default=SEAM_TOLERANCE_CM, metavar="CM",
+                   help="absolute length difference allowed between the two sides of a "
+                        f"non-gathered stitch (default {SEAM_TOLERANCE_CM} cm)")
+    p.add_argument("--seam-tolerance-rel", type=float, default=SEAM_TOLERANCE_REL, metavar="FRAC",
+                   help="relative difference allowed, as a fraction of the longer side; the larger "
+                        f"of the two tolerances applies (default {SEAM_TOLERANCE_REL})")
+    p.add_argument("--strict", action="store_true", help="treat warnings as errors (exit 1)")
+    p.add_argument("--svg", metavar="OUT.svg", type=Path,
+                   help="also draw the pattern to a true-scale SVG (1 unit = 1 cm)")
+    p.add_argument("--fix", metavar="OUT.json", type=Path,
+                   help="repair fixable problems (a repeated closing point) and write the result "
+                        "as sewpat-1 to OUT.json; the input file is never overwritten")
+    p.add_argument("-q", "--quiet", action="store_true", help="print only problems, no summary")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    try:
+        path = Path(args.file)
+        if not path.exists():
+            raise SeamfitError(f"{path}: no such file")
+        if path.suffix.lower() in BODY_SUFFIXES:
+            return _run_body(args)
+        return _run_pattern(args)
+    except SeamfitError as exc:
+        # reported here too so the command behaves the same when called on its own
+        print(f"seamfit validate: error: {exc}", file=sys.stderr)
+        return 2
+
+
+def _run_pattern(args) -> int:
+    from ..pattern import save_pattern, validate_pattern, write_svg
+    from ..pattern.io import read_pattern_file
+    from ..pattern.validate import fix_pattern
+
+    if args.seam_tolerance < 0 or not 0 <= args.seam_tolerance_rel < 1:
+        raise SeamfitError("--seam-tolerance must be >= 0 and --seam-tolerance-rel in [0, 1)")
+    pattern, fmt = read_pattern_file(args.file)
+    report = validate_pattern(pattern, seam_tolerance_cm=args.seam_tolerance,
+                              seam_tolerance_rel=args.seam_tolerance_rel)
+    out = sys.stdout
+    if not args.quiet:
+        n_vert = sum(len(p.outline_cm) for p in pattern.panels)
+        ident = ", ".join(f"{k} {v}" for k, v in (("garment", pattern.garment_id), ("body", pattern.body_id)) if v)
+        kind = "GarmentCode specification" if fmt == "garmentcode" else fmt
+        print(f"{args.file}: {kind}" + (f" ({ident})" if ident else ""), file=out)
+        print(f"  panels: {len(pattern.panels)}, vertices: {n_vert}, stitches: {len(pattern.stitches)} "
+              f"({sum(s.gathered for s in pattern.stitches)} gathered), warnings: {len(report.warnings)}, "
+              f"errors: {len(report.errors)}", file=out)
+        for p in pattern.panels:
+            print(f"  - {p.name}: {len(p.outline_cm)} vertices, {len(p.edges)} edges, "
+                  f"{len(p.corners)} corners, {abs(p.signed_area_cm2()):.1f} cm2, {p.orientation}", file=out)
+    for m in report.warnings:
+        print(f"warning: {m}", file=out)
+    for m in report.errors:
+        print(f"error: {m}", file=sys.stderr)
+    if args.fix is not None:
+        done = fix_pattern(pattern)
+        save_pattern(pattern, args.fix)
+        for m in done:
+            print(f"fixed: {m}", file=out)
+        print(f"wrote {args.fix}", file=out)
+    if args.svg is not None:
+        write_svg(args.svg, pattern, title=Path(args.file).name)
+        print(f"wrote {args.svg}", file=out)
+    failed = bool(report.errors) or (args.strict and bool(report.warnings))
+    if not args.quiet:
+        print("INVALID" if failed else "OK", file=out)
+    return 1 if failed else 0
+
+
+def _run_body(args) -> int:
+    # bodies live in seamfit.body; imported here so patterns work without it
+    try:
+        from ..body import load_body, validate_body
+    except ImportError as exc:
+        raise SeamfitError(f"{args.file}: cannot check bodies, seamfit.body is not available ({exc})") from exc
+    body = load_body(args.file)                     # unreadable: exit 2 via the caller
+    try:
+        report = validate_body(body)
+    except BodyError as exc:                        # a body that loads but fails its checks
+        report, errors = None, [str(exc)]
+    else:
+        errors = list(getattr(report, "errors", []) or [])
+    warnings = list(getattr(report, "warnings", []) or [])
+    if not args.quiet:
+        print(f"{args.file}: body" + (f"\n  {report}" if report is not None and not errors else ""))
+    for m in warnings:
+        print(f"warning: {m}")
+    for m in errors:
+        print(f"error: {m}", file=sys.stderr)
+    failed = bool(errors) or (args.strict and bool(warnings))
+    if not args.quiet:
+        print("INVALID" if failed else "OK")
+    return 1 if failed else 0

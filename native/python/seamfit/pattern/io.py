@@ -1,0 +1,83 @@
+"""Load a pattern from any format seamfit reads; save it as ``sewpat-1``."""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from ..errors import PatternError
+from .garmentcode import garment_id_from_path, is_garmentcode_spec, pattern_from_garmentcode
+from .model import Pattern
+from .sewpat import FORMAT, pattern_from_dict, write_sewpat
+
+READABLE = "a sewpat-1 pattern (.json) or a GarmentCode *_specification.json"
+
+
+def detect_format(d) -> str | None:
+    """'sewpat-1', 'garmentcode' or None for a parsed JSON document."""
+    if isinstance(d, dict) and d.get("format") == FORMAT:
+        return FORMAT
+    if is_garmentcode_spec(d):
+        return "garmentcode"
+    return None
+
+
+def load_pattern(path: str | Path) -> Pattern:
+    """Read a pattern file, detecting its format from its content.
+
+    Raises PatternError naming the file when it is missing, unreadable, not JSON, or
+    neither sewpat-1 nor a GarmentCode specification.
+    """
+    return read_pattern_file(path)[0]
+
+
+def read_pattern_file(path: str | Path) -> tuple[Pattern, str]:
+    """:func:`load_pattern`, also returning the detected format ('sewpat-1' or 'garmentcode')."""
+    path = Path(path)
+    if not path.exists():
+        raise PatternError(f"{path}: no such file")
+    if path.is_dir():
+        raise PatternError(f"{path}: is a directory, expected {READABLE}")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise PatternError(f"{path}: not a text file; expected {READABLE}") from exc
+    except OSError as exc:
+        raise PatternError(f"{path}: cannot read ({exc.strerror})") from exc
+    try:
+        d = json.loads(text)
+    except json.JSONDecodeError as exc:
+        if path.suffix.lower() != ".json":
+            raise PatternError(f"{path}: unsupported file type {path.suffix or '(no extension)'!r}; "
+                               f"expected {READABLE}") from exc
+        raise PatternError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from exc
+    fmt = detect_format(d)
+    if fmt == FORMAT:
+        return pattern_from_dict(d, str(path)), fmt
+    if fmt == "garmentcode":
+        return pattern_from_garmentcode(d, str(path), garment_id=garment_id_from_path(path)), fmt
+    if isinstance(d, dict) and "format" in d:
+        raise PatternError(f"{path}: unsupported pattern format {d['format']!r}; expected {READABLE}")
+    raise PatternError(f"{path}: JSON file is not a pattern; expected {READABLE}")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return a.resolve() == b.resolve()
+
+
+def save_pattern(pattern: Pattern, path: str | Path, *, overwrite: bool = False) -> Path:
+    """Write ``pattern`` as sewpat-1, atomically.
+
+    Refuses to replace the file the pattern was read from (``pattern.source_file``)
+    unless ``overwrite=True``, so a run never destroys its own input by accident.
+    """
+    path = Path(path)
+    if not overwrite and pattern.source_file and _same_file(path, Path(pattern.source_file)):
+        raise PatternError(f"{path}: is the file this pattern was read from; not overwritten "
+                           "(write elsewhere or pass overwrite=True)")
+    if path.is_dir():
+        raise PatternError(f"{path}: is a directory; give a file name for the sewpat-1 output")
+    return write_sewpat(pattern, path)

@@ -52,28 +52,13 @@ def seamfit_version() -> str:
 # Patterns
 
 def load_pattern(path: str):
-    pat = seamfit_module("pattern")
-    loader = getattr(pat, "load_pattern", None)
-    if loader is not None:   # sewpat-1 or GarmentCode specification
-        return loader(path)
-    return pat.read_sewpat(path)
+    """sewpat-1 or a GarmentCode specification, detected from the content."""
+    return seamfit_module("pattern").load_pattern(path)
 
 
 def check_pattern(pattern) -> list[str]:
-    """Refuse a broken pattern (raises seamfit's PatternError); return its warnings."""
-    pat = seamfit_module("pattern")
-    validate = getattr(pat, "validate_pattern", None)
-    if validate is None:
-        return []
-    report = validate(pattern)
-    errors = list(getattr(report, "errors", []) or [])
-    if errors:
-        check = getattr(pat, "check_pattern", None)
-        if check is not None:
-            check(pattern)
-        from seamfit.errors import PatternError
-        raise PatternError("; ".join(str(e) for e in errors))
-    return [str(w) for w in (getattr(report, "warnings", []) or [])]
+    """Refuse a broken pattern (seamfit's PatternError lists every error); return the warnings."""
+    return [str(w) for w in seamfit_module("pattern").check_pattern(pattern).warnings]
 
 
 def pattern_to_json(pattern) -> str:
@@ -87,24 +72,13 @@ def pattern_from_json(text: str, source: str = "<blend>"):
 
 
 def save_pattern(pattern, path: str) -> None:
-    """sewpat-1, written atomically by seamfit."""
-    pat = seamfit_module("pattern")
-    saver = getattr(pat, "save_pattern", None)
-    if saver is not None:
-        saver(pattern, path)
-    else:
-        pat.write_sewpat(pattern, path)
+    """sewpat-1, written atomically; seamfit refuses to write over the pattern's own source file."""
+    seamfit_module("pattern").save_pattern(pattern, path)
 
 
 def save_svg(patterns: list, path: str, labels: list[str] | None = None) -> None:
-    pat = seamfit_module("pattern")
-    writer = getattr(pat, "write_svg", None)
-    if writer is None:
-        raise AddonError("SVG export needs seamfit.pattern.write_svg, which this seamfit does not have yet")
-    if labels is not None:
-        writer(path, patterns, labels=labels)
-    else:
-        writer(path, patterns)
+    """True-scale drawing; several patterns are overlaid, the first being the base."""
+    seamfit_module("pattern").write_svg(path, patterns, labels=labels)
 
 
 def side_points_cm(pattern, side) -> np.ndarray:

@@ -173,6 +173,8 @@ def pattern_from_collection(coll):
     if not is_pattern_collection(coll):
         raise compute.AddonError(f"collection {coll.name!r} holds no seamfit pattern")
     pattern = compute.pattern_from_json(coll[PATTERN_KEY], source=f"collection {coll.name!r}")
+    # Where it came from: seamfit then refuses to export over the user's original file.
+    pattern.source_file = coll.seamfit.source or None
     objs = panel_objects(coll)
     for pn in pattern.panels:
         obj = objs.get(pn.name)

@@ -6,7 +6,7 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import (BODICE, PENCIL, addon, file_digest, object_fingerprint, scene_fingerprint,
+from helpers import (BODICE, PENCIL, PENCIL_GC_SPEC, addon, file_digest, object_fingerprint, scene_fingerprint,
                      undo, undo_push)
 
 
@@ -106,8 +106,14 @@ def test_broken_file_reports_and_changes_nothing(scene, tmp_out):
     before = scene_fingerprint()
     with pytest.raises(RuntimeError, match="outline_cm"):
         bpy.ops.seamfit.import_pattern(filepath=str(bad))
-    with pytest.raises(RuntimeError, match="cannot read"):
+    with pytest.raises(RuntimeError, match="no such file"):
         bpy.ops.seamfit.import_pattern(filepath=str(tmp_out / "missing.json"))
+    # Readable but invalid: seamfit's validation names the stitch.
+    d = json.loads(PENCIL.read_text())
+    d["stitches"][0]["a"]["range"] = [0, 100000]
+    bad.write_text(json.dumps(d))
+    with pytest.raises(RuntimeError, match="invalid pattern"):
+        bpy.ops.seamfit.import_pattern(filepath=str(bad))
     assert scene_fingerprint() == before
 
 
@@ -198,3 +204,37 @@ def test_presets_set_strengths(scene):
     assert s.strength_preset == "CUSTOM"
     s.strength_preset = "woven"
     assert s.strength_pos == 100.0 and s.strength_preset == "woven"
+
+
+def test_import_garmentcode_specification(scene):
+    from seamfit.pattern import load_pattern
+    pattern = load_pattern(PENCIL_GC_SPEC)
+    assert bpy.ops.seamfit.import_pattern(filepath=str(PENCIL_GC_SPEC)) == {"FINISHED"}
+    (coll,) = _pattern_collections()
+    panels = {o["seamfit_panel"]: o for o in coll.objects if "seamfit_panel" in o}
+    assert sorted(panels) == sorted(p.name for p in pattern.panels)
+    for pn in pattern.panels:
+        assert np.allclose(_curve_world_points(panels[pn.name]), pn.placement.to_world(pn.outline_cm),
+                           atol=2e-6)
+    assert len(coll.seamfit.stitches) == len(pattern.stitches) > 0
+
+
+def test_export_svg(scene, tmp_out):
+    import xml.etree.ElementTree as ET
+    bpy.ops.seamfit.import_pattern(filepath=str(PENCIL))
+    out = tmp_out / "pattern.svg"
+    assert bpy.ops.seamfit.export_pattern(filepath=str(out), format="SVG") == {"FINISHED"}
+    root = ET.parse(out).getroot()
+    texts = {t.text for t in root.iter("{http://www.w3.org/2000/svg}text")}
+    assert {p.name for p in _read(PENCIL).panels} <= texts
+    assert root.get("width").endswith("cm")
+
+
+def test_export_refuses_to_overwrite_the_imported_file(scene, tmp_out):
+    src = tmp_out / "mine.json"
+    src.write_bytes(PENCIL.read_bytes())
+    digest = file_digest(src)
+    bpy.ops.seamfit.import_pattern(filepath=str(src))
+    with pytest.raises(RuntimeError, match="read from"):
+        bpy.ops.seamfit.export_pattern(filepath=str(src), format="SEWPAT")
+    assert file_digest(src) == digest

@@ -77,7 +77,7 @@ def _apply_preset(self, context):
         return
     _applying_preset = True
     try:
-        for key, val in zip(presets.STRENGTH_KEYS, values[2]):
+        for key, val in zip(presets.STRENGTH_KEYS, values[1]):
             setattr(self, f"strength_{key}", val)
     finally:
         _applying_preset = False
@@ -88,7 +88,7 @@ def _strength_edited(self, context):
         preset = _PRESETS.get(self.strength_preset)
         if preset is not None and any(
                 abs(getattr(self, f"strength_{k}") - v) > 1e-6 * max(1e-6, abs(v))
-                for k, v in zip(presets.STRENGTH_KEYS, preset[2])):
+                for k, v in zip(presets.STRENGTH_KEYS, preset[1])):
             self.strength_preset = "CUSTOM"
 
 
@@ -97,8 +97,8 @@ def _strength(name, desc, default):
                          soft_max=1e7, precision=4, update=_strength_edited)
 
 
-_DEFAULT_PRESET = "woven" if "woven" in _PRESETS else next(iter(_PRESETS))
-_default = _PRESETS[_DEFAULT_PRESET][2]
+_DEFAULT_PRESET = presets.DEFAULT if presets.DEFAULT in _PRESETS else next(iter(_PRESETS))
+_default = _PRESETS[_DEFAULT_PRESET][1]
 
 _FABRICS = [
     ("cotton", "Cotton (woven)", "Plain woven cotton test fabric"),

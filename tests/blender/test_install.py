@@ -51,6 +51,6 @@ def test_user_scene_props_defaults(scene):
     assert s.pattern is None and s.base_body is None and s.target_body is None
     assert s.edge_length_cm == 1.5
     assert s.device == "AUTO"
-    assert s.strength_preset == "woven"
+    assert s.strength_preset == "dress"
     assert (s.strength_fix, s.strength_cur, s.strength_dis, s.strength_smo, s.strength_str,
             s.strength_pos) == pytest.approx((100.0, 1e6, 1.0, 0.05, 1.0, 100.0), rel=1e-6)

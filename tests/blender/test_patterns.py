@@ -198,12 +198,12 @@ def test_overlay_items(scene):
 
 def test_presets_set_strengths(scene):
     s = scene.seamfit
-    s.strength_preset = "stretch"
+    s.strength_preset = "fitted"
     assert (s.strength_dis, s.strength_smo, s.strength_str) == pytest.approx((0.01, 5e-5, 5.0))
     s.strength_pos = 50.0
     assert s.strength_preset == "CUSTOM"
-    s.strength_preset = "woven"
-    assert s.strength_pos == 100.0 and s.strength_preset == "woven"
+    s.strength_preset = "dress"
+    assert s.strength_pos == 100.0 and s.strength_preset == "dress"
 
 
 def test_import_garmentcode_specification(scene):

@@ -176,8 +176,12 @@ def body_object(body: BodyInput):
 def body_report(body: BodyInput) -> dict:
     """Validation messages and key measurements (cm) of a body."""
     b = seamfit_module("body")
-    sb = body_object(body)
-    report = b.validate_body(sb)
+    from seamfit.errors import BodyError
+    try:
+        sb = body_object(body)
+        report = b.validate_body(sb)
+    except BodyError as exc:        # a body that loads but fails its checks, or does not load
+        return {"errors": [str(exc)], "warnings": [], "measurements": {}}
     errors = [str(e) for e in (getattr(report, "errors", None) or [])]
     warnings = [str(w) for w in (getattr(report, "warnings", None) or [])]
     measurements = {}

@@ -235,6 +235,46 @@ def device_status() -> dict:
 # Drape and grade (filled in as seamfit.sim and seamfit.opt provide them)
 
 @dataclass
+class Garment:
+    """A garment mesh ready for the scene: pattern (uv_cm), positions x (m), triangles,
+    sewing pairs, panel of each triangle, stretch ratio per vertex."""
+    panel_names: list
+    uv_cm: np.ndarray
+    x: np.ndarray
+    triangles: np.ndarray
+    triangle_panel: np.ndarray
+    sewing_pairs: np.ndarray
+    pair_stitch: np.ndarray | None = None
+    stretch: np.ndarray | None = None
+
+
+def garment(mesh, x: np.ndarray | None = None) -> Garment:
+    """``mesh`` (a seamfit SewnMesh) at positions ``x`` (default: its flat start positions)."""
+    x = np.asarray(mesh.x0 if x is None else x, dtype=np.float64)
+    return Garment(panel_names=list(mesh.panel_names), uv_cm=np.asarray(mesh.uv_cm), x=x,
+                   triangles=np.asarray(mesh.triangles), triangle_panel=np.asarray(mesh.triangle_panel),
+                   sewing_pairs=np.asarray(mesh.sewing_pairs).reshape(-1, 2),
+                   pair_stitch=np.asarray(getattr(mesh, "pair_stitch", None))
+                   if getattr(mesh, "pair_stitch", None) is not None else None,
+                   stretch=stretch_ratio_per_vertex(mesh.uv_cm, x, mesh.triangles))
+
+
+@dataclass
+class MeshOutput:
+    pattern_json: str
+    garment: Garment
+    stats: dict
+
+
+def run_mesh(pattern_json: str, edge_length_cm: float, job) -> MeshOutput:
+    job.update(stage="meshing", fraction=0.1)
+    mesh, _ = sewn_mesh(pattern_json, edge_length_cm)
+    job.update(stage="meshed", fraction=1.0)
+    stats = mesh.stats() if hasattr(mesh, "stats") else {}
+    return MeshOutput(pattern_json, garment(mesh), stats)
+
+
+@dataclass
 class RunInputs:
     pattern_name: str
     pattern_json: str

@@ -267,16 +267,39 @@ def garment_mesh(name: str, g, made: list) -> bpy.types.Object:
     uv.data.foreach_set("uv", uv_loop.astype(np.float32).ravel())
     panel = me.attributes.new("panel", "INT", "FACE")
     panel.data.foreach_set("value", np.asarray(g.triangle_panel, dtype=np.int32))
-    ratio = me.attributes.new("stretch_ratio", "FLOAT", "POINT")
-    ratio.data.foreach_set("value", np.asarray(g.stretch, dtype=np.float32))
-    col = me.color_attributes.new("stretch_color", "FLOAT_COLOR", "POINT")
-    col.data.foreach_set("color", stretch_colors(g.stretch).astype(np.float32).ravel())
-    me.color_attributes.active_color = col
-    me.validate(clean_customdata=False)
-    me.materials.append(_stretch_material(made))
+    if len(pairs) and g.pair_stitch is not None:
+        # Blender may reorder edges when it derives the face edges: find each pair's edge.
+        ev = np.empty(2 * len(me.edges), dtype=np.int64)
+        me.edges.foreach_get("vertices", ev)
+        nv = len(x)
+        keys = np.sort(ev.reshape(-1, 2), axis=1) @ np.array([nv, 1])
+        pkeys = np.sort(pairs, axis=1) @ np.array([nv, 1])
+        order = np.argsort(keys)
+        where = order[np.searchsorted(keys, pkeys, sorter=order)]
+        values = np.full(len(me.edges), -1, dtype=np.int32)
+        values[where] = np.asarray(g.pair_stitch, dtype=np.int32)
+        me.attributes.new("stitch", "INT", "EDGE").data.foreach_set("value", values)
+    if g.stretch is not None:
+        ratio = me.attributes.new("stretch_ratio", "FLOAT", "POINT")
+        ratio.data.foreach_set("value", np.asarray(g.stretch, dtype=np.float32))
+        col = me.color_attributes.new("stretch_color", "FLOAT_COLOR", "POINT")
+        col.data.foreach_set("color", stretch_colors(g.stretch).astype(np.float32).ravel())
+        me.color_attributes.active_color = col
+        me.materials.append(_stretch_material(made))
     obj = bpy.data.objects.new(name, me)
     obj["seamfit_panels"] = list(g.panel_names)
     return obj
+
+
+def build_sewn(context, out, name: str) -> bpy.types.Collection:
+    """A new collection with the sewn-ready mesh of a pattern, flat at the panel placements."""
+    with building() as made:
+        coll = _new_collection(context, name, made)
+        coll[PATTERN_KEY] = out.pattern_json
+        coll[ROLE_KEY] = "drape"
+        coll.seamfit.role = "mesh"
+        _link(coll, garment_mesh(name, out.garment, made), made)
+    return coll
 
 
 def _store_fit(coll, fit: dict | None) -> None:

@@ -45,6 +45,22 @@ def _run_inputs(context, with_target: bool) -> compute.RunInputs:
         strengths=cfg["strengths"], opt=cfg["opt"], device=cfg["device"])
 
 
+def mesh_task(context) -> Task:
+    s = context.scene.seamfit
+    if s.pattern is None:
+        raise compute.AddonError("no pattern: import one or pick it in the Patterns panel")
+    name = s.pattern.name
+    text = compute.pattern_to_json(scene_io.pattern_from_collection(s.pattern))
+    edge = float(s.edge_length_cm)
+
+    def apply(ctx, out) -> str:
+        coll = scene_io.build_sewn(ctx, out, f"{name} sewn mesh")
+        g = out.garment
+        return (f"Meshed {name} at {edge:g} cm: {len(g.x)} vertices, {len(g.triangles)} triangles, "
+                f"{len(g.sewing_pairs)} sewing pairs in {coll.name!r}")
+    return Task(f"mesh {name}", lambda job: compute.run_mesh(text, edge, job), apply)
+
+
 def drape_task(context) -> Task:
     inputs = _run_inputs(context, with_target=False)
 
@@ -181,6 +197,16 @@ class _JobOperator:
         return self._report_end(*runner.finish(context))
 
 
+class SEAMFIT_OT_build_mesh(_JobOperator, bpy.types.Operator):
+    """Mesh the pattern at the mesh resolution: panels as faces, seams as loose sewing edges
+    (ready for Blender's cloth simulation with sewing)"""
+    bl_idname = "seamfit.build_mesh"
+    bl_label = "Sewn Mesh"
+
+    def make_task(self, context):
+        return mesh_task(context)
+
+
 class SEAMFIT_OT_drape(_JobOperator, bpy.types.Operator):
     """Drape the base pattern on the base body (result: a new mesh coloured by stretch)"""
     bl_idname = "seamfit.drape"
@@ -214,7 +240,7 @@ class SEAMFIT_OT_cancel(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (SEAMFIT_OT_drape, SEAMFIT_OT_adjust, SEAMFIT_OT_cancel)
+CLASSES = (SEAMFIT_OT_build_mesh, SEAMFIT_OT_drape, SEAMFIT_OT_adjust, SEAMFIT_OT_cancel)
 
 
 def register():

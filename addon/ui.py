@@ -37,7 +37,9 @@ class SEAMFIT_PT_patterns(_SeamfitPanel, bpy.types.Panel):
         layout = self.layout
         layout.operator("seamfit.import_pattern", icon="IMPORT")
         layout.prop(s, "pattern")
-        layout.prop(s, "edge_length_cm")
+        row = layout.row(align=True)
+        row.prop(s, "edge_length_cm")
+        row.operator("seamfit.build_mesh", text="", icon="MOD_TRIANGULATE")
         coll = s.pattern
         if coll is None:
             layout.label(text="No pattern: import a sewpat-1 or GarmentCode file", icon="INFO")

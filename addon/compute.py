@@ -6,15 +6,13 @@ from __future__ import annotations
 
 import importlib
 import json
-import os
-import tempfile
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .cache import CACHE, digest
+from .jobs import Cancelled
 
 
 class AddonError(Exception):
@@ -145,32 +143,16 @@ class BodyInput:
             self.key = digest(self.vertices, self.triangles)
 
 
-def _body_dir() -> Path:
-    d = Path(tempfile.gettempdir()) / f"seamfit-bodies-{os.getuid() if hasattr(os, 'getuid') else 0}"
-    d.mkdir(parents=True, exist_ok=True)
-    return d
-
-
-def _write_obj(path: Path, v: np.ndarray, f: np.ndarray) -> None:
-    # seamfit reads bodies from files; a temporary OBJ named by the content hash
-    # hands it the scene's mesh exactly (17 significant digits round-trip float64).
-    lines = ["# body exported by the seamfit Blender add-on"]
-    lines += [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in v]
-    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f]
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text("\n".join(lines) + "\n")
-    os.replace(tmp, path)
-
-
 def body_object(body: BodyInput):
-    """seamfit's body for the captured mesh (cached by content)."""
+    """seamfit's Body for the captured mesh (cached by content)."""
     def make():
-        b = seamfit_module("body")
-        path = _body_dir() / f"{body.key}.obj"
-        if not path.exists():
-            _write_obj(path, body.vertices, body.triangles)
-        return b.load_body(str(path))
+        return seamfit_module("body").Body(body.vertices, body.triangles, name=body.name)
     return CACHE.get("body", body.key, make)
+
+
+def body_measurements(body: BodyInput) -> dict:
+    key = "measure:" + body.key
+    return CACHE.get("body", key, lambda: seamfit_module("body").body_measurements(body_object(body)))
 
 
 def body_report(body: BodyInput) -> dict:
@@ -186,8 +168,29 @@ def body_report(body: BodyInput) -> dict:
     warnings = [str(w) for w in (getattr(report, "warnings", None) or [])]
     measurements = {}
     if not errors:
-        measurements = {k: float(v) for k, v in b.body_measurements(sb).items()}
+        try:
+            m = body_measurements(body)
+        except BodyError as exc:    # valid mesh but not measurable as a body
+            return {"errors": [str(exc)], "warnings": warnings, "measurements": {}}
+        measurements = {k: float(m[k]) for k in ("height", "bust", "waist", "hip") if k in m}
     return {"errors": errors, "warnings": warnings, "measurements": measurements}
+
+
+def fit_ease(body: BodyInput, g: Garment) -> dict:
+    """Ease in cm (garment girth minus body girth) at the body's bust, waist and hip levels;
+    a level the garment does not reach around the body is left out."""
+    b = seamfit_module("body")
+    m = body_measurements(body)
+    levels = m.get("levels_z_m", {})
+    shell = b.Body(g.x, g.triangles, name="garment")
+    out = {}
+    for key in ("bust", "waist", "hip"):
+        if key not in levels or key not in m:
+            continue
+        girth = float(b.cross_section_girth(shell, float(levels[key])))
+        if np.isfinite(girth) and girth > 0:
+            out[key] = 100.0 * girth - float(m[key])
+    return out
 
 
 def body_sdf(body: BodyInput, settings: dict | None = None):
@@ -305,3 +308,75 @@ def stretch_ratio_per_vertex(uv_cm: np.ndarray, x: np.ndarray, triangles: np.nda
     np.add.at(cnt, e[:, 0], 1)
     np.add.at(cnt, e[:, 1], 1)
     return np.where(cnt > 0, acc / np.maximum(cnt, 1), 1.0)
+
+
+@dataclass
+class DrapeOutput:
+    pattern_json: str
+    garment: Garment
+    converged: bool
+    residual: float
+    iterations: int
+    seconds: float
+    message: str
+    fit: dict
+
+
+def fabric_defaults() -> dict:
+    """seamfit's default fabric (numbers shown in the Simulation panel)."""
+    try:
+        from seamfit.sim import Fabric
+        f = Fabric()
+        return {k: float(getattr(f, k)) for k in ("stretch_stiffness", "sewing_stiffness",
+                                                   "bending_stiffness", "density")}
+    except Exception:   # seamfit without the simulator: the values it documents
+        return {"stretch_stiffness": 1000.0, "sewing_stiffness": 8660.0,
+                "bending_stiffness": 1.0e-5, "density": 0.2}
+
+
+def _simulator(mesh, sdf, sim_cfg: dict, device: str):
+    sim = seamfit_module("sim")
+    from dataclasses import fields
+    fabric = sim.Fabric(**{k: float(v) for k, v in sim_cfg.get("fabric", {}).items()})
+    opts = {"mu": float(sim_cfg.get("mu", 0.01)), "max_iterations": int(sim_cfg.get("iterations", 40000))}
+    names = {f.name for f in fields(sim.SimSettings)}
+    if "device" in names:
+        opts["device"] = device
+    elif device == "cuda":
+        raise AddonError("this seamfit simulates on the CPU only; set Device to Auto or CPU")
+    settings = sim.SimSettings(**opts)
+    return sim.Simulator(mesh, sdf, fabric, settings), settings
+
+
+def base_drape(inp: RunInputs, job, span=(0.1, 0.9)):
+    """The base garment draped on the base body (cached): (mesh, DrapeResult, mesh_key)."""
+    job.update(stage="meshing the pattern", fraction=0.01)
+    mesh, mesh_key = sewn_mesh(inp.pattern_json, inp.edge_length_cm)
+    job.update(stage="base body distance field", fraction=0.04)
+    sdf = body_sdf(inp.base)
+    key = digest(mesh_key, inp.base.key, inp.sim, inp.device)
+
+    def make():
+        simulator, settings = _simulator(mesh, sdf, inp.sim, inp.device)
+        res = simulator.drape(progress=job.callback("draping on the base body", span=span,
+                                                    target=float(settings.tolerance)))
+        job.check()     # a cancelled drape is never cached
+        if getattr(res, "cancelled", False):
+            raise Cancelled()
+        return res
+    return mesh, CACHE.get("drape", key, make), mesh_key
+
+
+def run_drape(inp: RunInputs, job) -> DrapeOutput:
+    mesh, res, _ = base_drape(inp, job)
+    job.update(stage="measuring the fit", fraction=0.95)
+    g = garment(mesh, res.x)
+    return DrapeOutput(inp.pattern_json, g, bool(res.converged), float(res.residual),
+                       int(res.iterations), float(res.seconds), str(res.message), _fit_or_none(inp.base, g))
+
+
+def _fit_or_none(body: BodyInput, g: Garment) -> dict:
+    try:
+        return fit_ease(body, g)
+    except user_errors():   # a body seamfit cannot measure: no fit lines, the result stands
+        return {}

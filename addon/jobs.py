@@ -8,6 +8,7 @@ the job has finished; a cancelled or failed job therefore never touches the scen
 """
 from __future__ import annotations
 
+import math
 import threading
 import time
 import traceback
@@ -65,19 +66,29 @@ class Job:
             raise Cancelled()
 
     def callback(self, stage: str, max_iterations: int | None = None,
-                 span: tuple[float, float] = (0.0, 1.0)) -> Callable[[int, float], bool]:
+                 span: tuple[float, float] = (0.0, 1.0),
+                 target: float | None = None) -> Callable[[int, float], bool]:
         """A ``callback(iteration, value) -> bool`` for seamfit's solvers: it records
-        progress within ``span`` of the bar and returns False once cancel was asked."""
+        progress within ``span`` of the bar and returns False once cancel was asked.
+        Progress is iteration / max_iterations, or, with ``target``, how far the value
+        (a residual) has fallen from its first value towards target on a log scale."""
         lo, hi = span
+        first: list[float] = []
 
         def cb(iteration: int, value: float) -> bool:
             frac = None
-            if max_iterations:
+            if target is not None and value > 0 and math.isfinite(value):
+                if not first:
+                    first.append(value)
+                r0 = max(first[0], target * 1.0001)
+                done = math.log(r0 / max(value, target)) / math.log(r0 / target)
+                frac = lo + (hi - lo) * min(1.0, max(0.0, done))
+            elif max_iterations:
                 frac = lo + (hi - lo) * min(1.0, (iteration + 1) / max_iterations)
             with self._lock:
                 self.stage = stage
                 if frac is not None:
-                    self.fraction = frac
+                    self.fraction = max(self.fraction, frac)    # a residual may rise for a while
                 self.objective = float(value)
                 self.history.append((int(iteration), float(value)))
             return not self._cancel.is_set()

@@ -4,10 +4,11 @@ seamfit, a summary of the pattern they hold."""
 from __future__ import annotations
 
 import bpy
+import numpy as np
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
 
-from . import presets, scene_io
+from . import compute, presets, scene_io
 
 
 class SEAMFIT_PG_panel_info(bpy.types.PropertyGroup):
@@ -30,6 +31,9 @@ class SEAMFIT_PG_fit(bpy.types.PropertyGroup):
     bust: FloatProperty(name="Bust ease (cm)")
     waist: FloatProperty(name="Waist ease (cm)")
     hip: FloatProperty(name="Hip ease (cm)")
+    has_bust: BoolProperty(description="The garment goes round the body at bust level")
+    has_waist: BoolProperty(description="The garment goes round the body at waist level")
+    has_hip: BoolProperty(description="The garment goes round the body at hip level")
 
 
 class SEAMFIT_PG_pattern_info(bpy.types.PropertyGroup):
@@ -100,12 +104,7 @@ def _strength(name, desc, default):
 _DEFAULT_PRESET = presets.DEFAULT if presets.DEFAULT in _PRESETS else next(iter(_PRESETS))
 _default = _PRESETS[_DEFAULT_PRESET][1]
 
-_FABRICS = [
-    ("cotton", "Cotton (woven)", "Plain woven cotton test fabric"),
-    ("denim", "Denim (thick woven)", "Stiff, heavy woven fabric"),
-    ("jersey", "Jersey (knit)", "Soft knit that stretches"),
-    ("spandex", "Spandex (stretch)", "Stretches about 20 percent"),
-]
+_FABRIC = compute.fabric_defaults()
 
 
 class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
@@ -131,10 +130,18 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     strength_str: _strength("Stretching", "Keeps the stretch ratio of every edge", _default[4])
     strength_pos: _strength("Positional", "Keeps every garment point where it sits on the body", _default[5])
 
-    fabric: EnumProperty(name="Fabric", items=_FABRICS, default="cotton")
+    fabric_stretch: FloatProperty(
+        name="Stretch stiffness (N/m)", default=_FABRIC["stretch_stiffness"], min=1.0, soft_max=1e5,
+        description="In-plane tensile stiffness of the fabric; seamfit's default is a medium woven cotton")
+    fabric_sewing: FloatProperty(name="Seam stiffness (N/m)", default=_FABRIC["sewing_stiffness"], min=0.0,
+                                 soft_max=1e6, description="Stiffness of one sewing spring")
+    fabric_bending: FloatProperty(name="Bending stiffness (N·m)", default=_FABRIC["bending_stiffness"], min=0.0,
+                                  soft_max=1e-3, precision=7, description="Flexural rigidity of the fabric")
+    fabric_density: FloatProperty(name="Density (kg/m²)", default=_FABRIC["density"], min=0.001, soft_max=2.0,
+                                  precision=3, description="Weight per area of the fabric")
     mu: FloatProperty(name="Barrier μ", default=0.01, min=1e-6, soft_max=1.0, precision=4,
                       description="Strength of the log barrier that keeps cloth outside the body")
-    sim_iterations: IntProperty(name="Drape iterations", default=2000, min=1, soft_max=100000,
+    sim_iterations: IntProperty(name="Drape iterations", default=40000, min=1, soft_max=100000,
                                 description="Most simulation iterations of a drape")
     steps_per_iteration: IntProperty(name="S (simulation steps)", default=8, min=1, soft_max=256,
                                      description="Simulation iterations per outer iteration of the grading")
@@ -169,12 +176,22 @@ def unregister():
         bpy.utils.unregister_class(cls)
 
 
+def _exact(value: float) -> float:
+    """The decimal a user typed, from Blender's float32 property: 0.05 stays 0.05 (not
+    0.0500000007), so the add-on hands seamfit the same numbers as the command line."""
+    return float(str(np.float32(value)))
+
+
 def settings_dict(s: SEAMFIT_PG_settings) -> dict:
     """The scene settings as plain data for a worker thread."""
     return {
-        "edge_length_cm": float(s.edge_length_cm),
-        "strengths": {k: float(getattr(s, f"strength_{k}")) for k in presets.STRENGTH_KEYS},
-        "sim": {"fabric": s.fabric, "mu": float(s.mu), "iterations": int(s.sim_iterations)},
+        "edge_length_cm": _exact(s.edge_length_cm),
+        "strengths": {k: _exact(getattr(s, f"strength_{k}")) for k in presets.STRENGTH_KEYS},
+        "sim": {"fabric": {"stretch_stiffness": _exact(s.fabric_stretch),
+                           "sewing_stiffness": _exact(s.fabric_sewing),
+                           "bending_stiffness": _exact(s.fabric_bending),
+                           "density": _exact(s.fabric_density)},
+                "mu": _exact(s.mu), "iterations": int(s.sim_iterations)},
         "opt": {"S": int(s.steps_per_iteration), "M": int(s.exact_every), "iterations": int(s.iterations)},
         "device": s.device.lower(),
     }

@@ -72,7 +72,12 @@ def _link(coll, obj, made):
     coll.objects.link(obj)
 
 
-def _panel_curve(name: str, panel, made: list) -> bpy.types.Object:
+# Viewport colours of the panels (Solid shading, Color: Object), so neighbours differ.
+_PALETTE = [(0.90, 0.55, 0.35, 1.0), (0.35, 0.60, 0.85, 1.0), (0.55, 0.80, 0.45, 1.0),
+            (0.85, 0.75, 0.35, 1.0), (0.70, 0.50, 0.80, 1.0), (0.40, 0.80, 0.80, 1.0)]
+
+
+def _panel_curve(name: str, panel, made: list, index: int = 0) -> bpy.types.Object:
     cu = bpy.data.curves.new(name, "CURVE")
     made.append(cu)
     # A flat 2D curve: Blender fills its interior, so each panel reads as a piece of cloth.
@@ -91,6 +96,7 @@ def _panel_curve(name: str, panel, made: list) -> bpy.types.Object:
     obj[PANEL_KEY] = panel.name
     obj["seamfit_corners"] = [int(i) for i in panel.corners]
     obj.show_name = True
+    obj.color = _PALETTE[index % len(_PALETTE)]
     return obj
 
 
@@ -151,8 +157,8 @@ def build_pattern(context, pattern, name: str, role: str = "pattern", source: st
     coll = _new_collection(context, name, made, parent)
     coll[PATTERN_KEY] = compute.pattern_to_json(pattern)
     coll[ROLE_KEY] = role
-    for pn in pattern.panels:
-        _link(coll, _panel_curve(pn.name, pn, made), made)
+    for k, pn in enumerate(pattern.panels):
+        _link(coll, _panel_curve(pn.name, pn, made, k), made)
     if pattern.stitches:
         _link(coll, _stitch_object(f"{name} stitches", pattern, made), made)
     store_summary(coll, pattern, role, source, body)
@@ -305,8 +311,10 @@ def build_sewn(context, out, name: str) -> bpy.types.Collection:
 def _store_fit(coll, fit: dict | None) -> None:
     f = coll.seamfit.fit
     f.valid = bool(fit)
-    if fit:
-        f.bust, f.waist, f.hip = (float(fit.get(k, 0.0)) for k in ("bust", "waist", "hip"))
+    for key in ("bust", "waist", "hip"):
+        has = bool(fit) and key in fit
+        setattr(f, f"has_{key}", has)
+        setattr(f, key, float(fit[key]) if has else 0.0)
 
 
 def build_drape(context, out, name: str, body: str) -> bpy.types.Collection:

@@ -103,7 +103,11 @@ class SEAMFIT_PT_simulation(_SeamfitPanel, bpy.types.Panel):
     def draw(self, context):
         s = context.scene.seamfit
         col = self.layout.column(align=True)
-        for name in ("fabric", "mu", "sim_iterations", "steps_per_iteration", "exact_every", "iterations"):
+        col.label(text="Fabric")
+        for name in ("fabric_stretch", "fabric_sewing", "fabric_bending", "fabric_density"):
+            col.prop(s, name)
+        col = self.layout.column(align=True)
+        for name in ("mu", "sim_iterations", "steps_per_iteration", "exact_every", "iterations"):
             col.prop(s, name)
         self.layout.prop(s, "device")
         dev = compute.device_status()
@@ -163,7 +167,9 @@ def _draw_results(layout):
         box.label(text=c.name, icon="OUTLINER_COLLECTION")
         fit = c.seamfit.fit
         if fit.valid:
-            box.label(text=f"Bust {fit.bust:+.1f}   Waist {fit.waist:+.1f}   Hip {fit.hip:+.1f} cm")
+            parts = [f"{k.capitalize()} {getattr(fit, k):+.1f}" if getattr(fit, f"has_{k}") else f"{k.capitalize()} –"
+                     for k in ("bust", "waist", "hip")]
+            box.label(text="   ".join(parts) + " cm")
 
 
 CLASSES = (SEAMFIT_UL_panels, SEAMFIT_UL_stitches, SEAMFIT_PT_patterns, SEAMFIT_PT_bodies,

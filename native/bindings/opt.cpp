@@ -1,9 +1,288 @@
+// Python bindings of the optimizer's building blocks (native/core/opt). Thin: shape
+// checks and array conversion only; seamfit.opt wraps these in the public API.
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <array>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
 #include "bindings.hpp"
+#include "body/sdf_grid.hpp"
+#include "opt/cost_set.hpp"
+#include "opt/parametrization.hpp"
+#include "opt/regularizer_set.hpp"
+#include "opt/transfer.hpp"
 
 namespace py = pybind11;
 
 namespace seamfit::bindings {
+namespace {
 
-void bind_opt(py::module_& m) { (void)m; }
+using opt::Tri;
+using DArr = py::array_t<double, py::array::c_style | py::array::forcecast>;
+using IArr = py::array_t<int, py::array::c_style | py::array::forcecast>;
+using FArr = py::array_t<float, py::array::c_style | py::array::forcecast>;
+static_assert(sizeof(Vec3) == 3 * sizeof(double) && sizeof(Vec2) == 2 * sizeof(double), "packed vectors");
+
+void check_shape(const py::array& a, py::ssize_t rows, py::ssize_t cols, const char* name) {
+  const bool ok = (cols < 0) ? (a.ndim() == 1 && (rows < 0 || a.shape(0) == rows))
+                             : (a.ndim() == 2 && (rows < 0 || a.shape(0) == rows) && a.shape(1) == cols);
+  if (!ok) {
+    std::string want = cols < 0 ? "(" + (rows < 0 ? std::string("n") : std::to_string(rows)) + ",)"
+                                : "(" + (rows < 0 ? std::string("n") : std::to_string(rows)) + ", " +
+                                      std::to_string(cols) + ")";
+    throw py::value_error(std::string(name) + ": expected an array of shape " + want);
+  }
+}
+
+std::vector<Tri> tris_from(const IArr& t) {
+  check_shape(t, -1, 3, "triangles");
+  std::vector<Tri> out(t.shape(0));
+  const int* d = t.data();
+  for (size_t i = 0; i < out.size(); ++i) out[i] = {d[3 * i], d[3 * i + 1], d[3 * i + 2]};
+  return out;
+}
+
+template <class V>
+const V* as(const DArr& a) { return reinterpret_cast<const V*>(a.data()); }
+
+DArr new_array(py::ssize_t rows, py::ssize_t cols) {
+  return cols < 0 ? DArr({rows}) : DArr({rows, cols});
+}
+
+template <class V>
+V* as_mut(DArr& a) { return reinterpret_cast<V*>(a.mutable_data()); }
+
+SdfGridView grid_view(const FArr& values, const DArr& origin, double spacing) {
+  if (values.ndim() != 3) throw py::value_error("sdf values: expected a (nz, ny, nx) array");
+  check_shape(origin, 3, -1, "sdf origin");
+  SdfGridView g;
+  g.values = values.data();
+  g.nz = int(values.shape(0));
+  g.ny = int(values.shape(1));
+  g.nx = int(values.shape(2));
+  for (int a = 0; a < 3; ++a) g.origin[a] = origin.data()[a];
+  g.spacing = spacing;
+  return g;
+}
+
+// CostSet plus the arrays its non-owning SDF view points into.
+struct PyCostSet {
+  std::unique_ptr<opt::CostSet> cs;
+  FArr sdf_values;
+};
+
+py::dict hits_to_dict(const std::vector<opt::TransferHit>& hits) {
+  const py::ssize_t n = py::ssize_t(hits.size());
+  py::array_t<int> t0({n}), t1({n});
+  DArr d0({n}), d1({n}), b0({n, py::ssize_t(3)}), b1({n, py::ssize_t(3)});
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const auto& h = hits[i];
+    t0.mutable_data()[i] = h.t0;
+    t1.mutable_data()[i] = h.t1;
+    d0.mutable_data()[i] = h.d0;
+    d1.mutable_data()[i] = h.d1;
+    for (int a = 0; a < 3; ++a) {
+      b0.mutable_data()[3 * i + a] = h.b0[a];
+      b1.mutable_data()[3 * i + a] = h.b1[a];
+    }
+  }
+  py::dict d;
+  d["t0"] = t0; d["d0"] = d0; d["b0"] = b0;
+  d["t1"] = t1; d["d1"] = d1; d["b1"] = b1;
+  return d;
+}
+
+py::tuple triplets(const Eigen::SparseMatrix<double>& m) {
+  std::vector<int> r, c;
+  std::vector<double> v;
+  for (int k = 0; k < m.outerSize(); ++k)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(m, k); it; ++it) {
+      r.push_back(int(it.row()));
+      c.push_back(int(it.col()));
+      v.push_back(it.value());
+    }
+  return py::make_tuple(py::array(py::cast(r)), py::array(py::cast(c)), py::array(py::cast(v)),
+                        py::make_tuple(m.rows(), m.cols()));
+}
+
+}  // namespace
+
+void bind_opt(py::module_& m) {
+  py::class_<opt::Parametrization>(m, "Parametrization",
+                                   "Boundary-vertex parametrization of a pattern (Eq. 8), prefactorized.")
+      .def(py::init([](const IArr& triangles, const DArr& pbar, py::array_t<bool, py::array::c_style | py::array::forcecast> boundary) {
+             check_shape(pbar, -1, 2, "pbar");
+             const py::ssize_t n = pbar.shape(0);
+             check_shape(boundary, n, -1, "boundary");
+             std::vector<unsigned char> b(boundary.data(), boundary.data() + n);
+             try {
+               return std::make_unique<opt::Parametrization>(int(n), tris_from(triangles), as<Vec2>(pbar), b.data());
+             } catch (const std::invalid_argument& e) {
+               throw py::value_error(e.what());
+             }
+           }),
+           py::arg("triangles"), py::arg("pbar"), py::arg("boundary"))
+      .def_property_readonly("n_vertices", &opt::Parametrization::n_vertices)
+      .def_property_readonly("boundary_ids", [](const opt::Parametrization& p) { return py::array(py::cast(p.boundary_ids())); })
+      .def_property_readonly("interior_ids", [](const opt::Parametrization& p) { return py::array(py::cast(p.interior_ids())); })
+      .def("pattern", [](const opt::Parametrization& p, const DArr& theta) {
+             check_shape(theta, p.n_boundary(), 2, "theta");
+             DArr out = new_array(p.n_vertices(), 2);
+             {
+               py::gil_scoped_release nogil;
+               p.pattern(as<Vec2>(theta), as_mut<Vec2>(out));
+             }
+             return out;
+           }, py::arg("theta"), "p(theta): (n_boundary, 2) -> (n_vertices, 2)")
+      .def("adjoint", [](const opt::Parametrization& p, const DArr& g) {
+             check_shape(g, p.n_vertices(), 2, "g");
+             DArr out = new_array(p.n_boundary(), 2);
+             {
+               py::gil_scoped_release nogil;
+               p.adjoint(as<Vec2>(g), as_mut<Vec2>(out));
+             }
+             return out;
+           }, py::arg("g"), "(dp/dtheta)^T g: (n_vertices, 2) -> (n_boundary, 2)")
+      .def("laplacian_triplets", [](const opt::Parametrization& p) { return triplets(p.laplacian()); });
+
+  py::class_<opt::Regularizers>(m, "Regularizers", "R^fix (Eq. 9) and R^cur (Eq. 10) over theta, and the preconditioner.")
+      .def(py::init([](const DArr& theta_bar, const std::vector<std::vector<int>>& loops, const DArr& weight) {
+             check_shape(theta_bar, -1, 2, "theta_bar");
+             check_shape(weight, theta_bar.shape(0), -1, "weight");
+             std::vector<Vec2> tb(as<Vec2>(theta_bar), as<Vec2>(theta_bar) + theta_bar.shape(0));
+             std::vector<double> w(weight.data(), weight.data() + weight.shape(0));
+             try {
+               return std::make_unique<opt::Regularizers>(tb, loops, w);
+             } catch (const std::invalid_argument& e) {
+               throw py::value_error(e.what());
+             }
+           }),
+           py::arg("theta_bar"), py::arg("loops"), py::arg("weight"))
+      .def("set_strengths", [](opt::Regularizers& r, double fix, double cur) {
+             try { r.set_strengths(fix, cur); } catch (const std::invalid_argument& e) { throw py::value_error(e.what()); }
+           }, py::arg("delta_fix"), py::arg("delta_cur"))
+      .def_property_readonly("n_theta", &opt::Regularizers::n_theta)
+      .def_property_readonly("curve_elements", [](const opt::Regularizers& r) { return r.curve_elements(); })
+      .def("evaluate", [](const opt::Regularizers& r, const DArr& theta) {
+             check_shape(theta, r.n_theta(), 2, "theta");
+             DArr g = new_array(r.n_theta(), 2);
+             std::array<double, 2> t{};
+             const double v = r.evaluate(as<Vec2>(theta), as_mut<Vec2>(g), &t);
+             return py::make_tuple(v, py::make_tuple(t[0], t[1]), g);
+           }, py::arg("theta"), "-> (value, (R_fix, R_cur), gradient)")
+      .def("apply_preconditioner", [](opt::Regularizers& r, const DArr& g) {
+             check_shape(g, r.n_theta(), 2, "g");
+             DArr out = new_array(r.n_theta(), 2);
+             try {
+               r.apply_preconditioner(as<Vec2>(g), as_mut<Vec2>(out));
+             } catch (const std::invalid_argument& e) {
+               throw py::value_error(e.what());
+             }
+             return out;
+           }, py::arg("g"), "P^-1 g")
+      .def("hessian_triplets", [](const opt::Regularizers& r) { return triplets(r.hessian()); });
+
+  py::class_<PyCostSet>(m, "CostSet", "Fitting costs (Eq. 11-16) on the CPU.")
+      .def(py::init([](const IArr& triangles, const DArr& pbar, const DArr& xbar) {
+             check_shape(pbar, -1, 2, "pbar");
+             check_shape(xbar, pbar.shape(0), 3, "xbar");
+             auto out = std::make_unique<PyCostSet>();
+             try {
+               out->cs = std::make_unique<opt::CostSet>(int(pbar.shape(0)), tris_from(triangles), as<Vec2>(pbar),
+                                                        as<Vec3>(xbar));
+             } catch (const std::invalid_argument& e) {
+               throw py::value_error(e.what());
+             }
+             return out;
+           }),
+           py::arg("triangles"), py::arg("pbar"), py::arg("xbar"))
+      .def("set_strengths", [](PyCostSet& c, double dis, double smo, double str, double pos) {
+             c.cs->set_strengths({dis, smo, str, pos});
+           }, py::arg("dis"), py::arg("smo"), py::arg("str"), py::arg("pos"))
+      .def("set_distance", [](PyCostSet& c, const FArr& values, const DArr& origin, double spacing, const DArr& phibar) {
+             check_shape(phibar, c.cs->n_vertices(), -1, "phibar");
+             const SdfGridView g = grid_view(values, origin, spacing);
+             try {
+               c.cs->set_distance(g, phibar.data());
+             } catch (const std::invalid_argument& e) {
+               throw py::value_error(e.what());
+             }
+             c.sdf_values = values;  // keep the grid alive for the view
+           }, py::arg("values"), py::arg("origin"), py::arg("spacing"), py::arg("phibar"))
+      .def("set_positional", [](PyCostSet& c, const DArr& xtilde, const DArr& u) {
+             check_shape(xtilde, c.cs->n_vertices(), 3, "xtilde");
+             check_shape(u, c.cs->n_vertices(), -1, "u");
+             c.cs->set_positional(as<Vec3>(xtilde), u.data());
+           }, py::arg("xtilde"), py::arg("u"))
+      .def("evaluate", [](PyCostSet& c, const DArr& x, const DArr& p) {
+             const int n = c.cs->n_vertices();
+             check_shape(x, n, 3, "x");
+             check_shape(p, n, 2, "p");
+             DArr gx = new_array(n, 3), gp = new_array(n, 2);
+             std::array<double, opt::kNumCostTerms> t{};
+             double v;
+             try {
+               py::gil_scoped_release nogil;
+               v = c.cs->evaluate(as<Vec3>(x), as<Vec2>(p), as_mut<Vec3>(gx), as_mut<Vec2>(gp), &t);
+             } catch (const std::logic_error& e) {
+               throw py::value_error(e.what());
+             }
+             py::dict terms;
+             terms["dis"] = t[opt::kDistance];
+             terms["smo"] = t[opt::kSmoothness];
+             terms["str"] = t[opt::kStretching];
+             terms["pos"] = t[opt::kPositional];
+             return py::make_tuple(v, terms, gx, gp);
+           }, py::arg("x"), py::arg("p"), "-> (value, terms, grad_x, grad_p)")
+      .def_property_readonly("evaluations", [](const PyCostSet& c) {
+             const auto& e = c.cs->evaluations();
+             py::dict d;
+             d["dis"] = e[opt::kDistance];
+             d["smo"] = e[opt::kSmoothness];
+             d["str"] = e[opt::kStretching];
+             d["pos"] = e[opt::kPositional];
+             return d;
+           })
+      .def_property_readonly("edges", [](const PyCostSet& c) { return c.cs->edges(); })
+      .def_property_readonly("hinges", [](const PyCostSet& c) { return c.cs->hinges(); })
+      .def_property_readonly("hinge_weights", [](const PyCostSet& c) { return c.cs->hinge_weights(); })
+      .def_property_readonly("stretch_ratio_bar", [](const PyCostSet& c) { return c.cs->stretch_ratio_bar(); });
+
+  m.def("sdf_sample_grid", [](const FArr& values, const DArr& origin, double spacing, const DArr& points) {
+          check_shape(points, -1, 3, "points");
+          const SdfGridView g = grid_view(values, origin, spacing);
+          const py::ssize_t n = points.shape(0);
+          DArr phi = new_array(n, -1), grad = new_array(n, 3);
+          const Vec3* p = as<Vec3>(points);
+          for (py::ssize_t i = 0; i < n; ++i) {
+            const SdfSample s = sdf_sample(g, p[i]);
+            phi.mutable_data()[i] = s.phi;
+            as_mut<Vec3>(grad)[i] = s.grad;
+          }
+          return py::make_tuple(phi, grad);
+        }, py::arg("values"), py::arg("origin"), py::arg("spacing"), py::arg("points"),
+        "Trilinear SDF value and gradient (the interpolant the costs and the simulator use).");
+
+  m.def("transfer_query", [](const DArr& verts, const IArr& faces, const DArr& points, double bandwidth) {
+          check_shape(verts, -1, 3, "body vertices");
+          check_shape(points, -1, 3, "points");
+          std::vector<Vec3> v(as<Vec3>(verts), as<Vec3>(verts) + verts.shape(0));
+          std::vector<Vec3> q(as<Vec3>(points), as<Vec3>(points) + points.shape(0));
+          const auto f = tris_from(faces);
+          std::vector<opt::TransferHit> hits;
+          try {
+            py::gil_scoped_release nogil;
+            hits = opt::transfer_query(v, f, q, bandwidth);
+          } catch (const std::invalid_argument& e) {
+            throw py::value_error(e.what());
+          }
+          return hits_to_dict(hits);
+        }, py::arg("verts"), py::arg("faces"), py::arg("points"), py::arg("bandwidth"),
+        "Closest body triangle and second local minimum per point (Eq. 15 inputs).");
+}
 
 }  // namespace seamfit::bindings

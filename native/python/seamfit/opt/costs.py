@@ -1,0 +1,118 @@
+"""The fitting costs of paper Section 6 (Eq. 11-16) over a garment x and a pattern p."""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from .._native import core
+from ..errors import SolveError
+from ._mesh import mesh_arrays
+
+# u_i of the positional cost (Eq. 16): seams and hems (panel boundaries) set the
+# garment's look, so they weigh more. With ~1.5 cm edges a 50 cm panel has roughly
+# one boundary vertex per ten interior ones; 4x gives the boundary about a third of
+# the positional weight.
+POSITIONAL_WEIGHT_INTERIOR = 1.0
+POSITIONAL_WEIGHT_BOUNDARY = 4.0
+
+
+@dataclass(frozen=True)
+class Strengths:
+    """Strength coefficients delta of every term (see ``seamfit.opt.presets``)."""
+    fix: float = 0.0
+    cur: float = 0.0
+    dis: float = 0.0
+    smo: float = 0.0
+    str: float = 0.0
+    pos: float = 0.0
+
+    def __post_init__(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not np.isfinite(v) or v < 0:
+                raise ValueError(f"strength {f.name} must be finite and >= 0, got {v}")
+
+    @classmethod
+    def from_any(cls, s) -> "Strengths":
+        if isinstance(s, cls):
+            return s
+        if isinstance(s, dict):
+            return cls(**s)
+        if hasattr(s, "strengths"):
+            return cls.from_any(s.strengths)
+        raise TypeError(f"cannot read strengths from {type(s).__name__}")
+
+
+def positional_weights(mesh) -> np.ndarray:
+    """Default u_i: POSITIONAL_WEIGHT_BOUNDARY on panel boundaries, 1 inside."""
+    b = np.asarray(mesh.boundary, dtype=bool)
+    return np.where(b, POSITIONAL_WEIGHT_BOUNDARY, POSITIONAL_WEIGHT_INTERIOR).astype(float)
+
+
+def _grid(sdf):
+    values = np.ascontiguousarray(sdf.values, dtype=np.float32)
+    return values, np.asarray(sdf.origin, dtype=float).reshape(3), float(sdf.spacing)
+
+
+def sample_sdf(sdf, points) -> tuple[np.ndarray, np.ndarray]:
+    """phi and grad phi of a grid SDF (``values`` (nz, ny, nx), ``origin``, ``spacing``)
+    with the trilinear interpolant the costs and the simulator use."""
+    values, origin, spacing = _grid(sdf)
+    return core().sdf_sample_grid(values, origin, spacing, np.asarray(points, dtype=float).reshape(-1, 3))
+
+
+class CostSet:
+    """C^dis + C^smo + C^str + C^pos for a garment sewn from ``mesh``.
+
+    xbar: the base garment (N, 3) m, simulated on the base body. Only the inputs of
+    terms with nonzero strength are needed: ``target_sdf`` and ``phibar`` (or
+    ``base_sdf`` to compute phibar = phi_base(xbar)) for the distance cost, ``xtilde``
+    (the transferred garment) for the positional cost. Zero-strength terms are never
+    evaluated; ``evaluations`` counts the evaluations of each term.
+    """
+
+    def __init__(self, mesh, xbar, strengths, *, target_sdf=None, phibar=None, base_sdf=None,
+                 xtilde=None, positional_weight=None):
+        a = mesh_arrays(mesh)
+        self.arrays = a
+        self.strengths = Strengths.from_any(strengths)
+        xbar = np.ascontiguousarray(xbar, dtype=float)
+        self.xbar = xbar
+        self._native = core().CostSet(a.triangles, a.pbar, xbar)
+        s = self.strengths
+        self._native.set_strengths(s.dis, s.smo, s.str, s.pos)
+        if s.dis != 0:
+            if target_sdf is None:
+                raise SolveError("the distance cost needs the target body's SDF (target_sdf)")
+            if phibar is None:
+                if base_sdf is None:
+                    raise SolveError("the distance cost needs phibar or the base body's SDF (base_sdf)")
+                phibar = sample_sdf(base_sdf, xbar)[0] if hasattr(base_sdf, "values") else base_sdf.sample(xbar)[0]
+            values, origin, spacing = _grid(target_sdf)
+            self._native.set_distance(values, origin, spacing, np.asarray(phibar, dtype=float).reshape(-1))
+        if s.pos != 0:
+            if xtilde is None:
+                raise SolveError("the positional cost needs the transferred garment (xtilde)")
+            u = positional_weights(mesh) if positional_weight is None else np.asarray(positional_weight, float)
+            self._native.set_positional(np.ascontiguousarray(xtilde, dtype=float), u)
+
+    def evaluate(self, x, p):
+        """-> (value, {"dis", "smo", "str", "pos"}, grad_x (N, 3), grad_p (N, 2))."""
+        return self._native.evaluate(np.asarray(x, dtype=float), np.asarray(p, dtype=float))
+
+    @property
+    def evaluations(self) -> dict:
+        return self._native.evaluations
+
+    @property
+    def edges(self) -> np.ndarray:
+        return np.asarray(self._native.edges, dtype=np.int64).reshape(-1, 2)
+
+    @property
+    def hinges(self) -> np.ndarray:
+        return np.asarray(self._native.hinges, dtype=np.int64).reshape(-1, 4)
+
+    @property
+    def hinge_weights(self) -> np.ndarray:
+        return np.asarray(self._native.hinge_weights, dtype=float).reshape(-1, 4)

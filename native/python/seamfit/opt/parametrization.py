@@ -1,0 +1,55 @@
+"""Boundary-vertex parametrization of a pattern (paper Section 5, Eq. 7-8)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .._native import core
+from ..errors import PatternError
+from ._mesh import mesh_arrays
+
+
+class Parametrization:
+    """theta = the boundary vertices (metres) of every panel, in increasing vertex id.
+
+    Interior vertices follow the boundary harmonically (cotangent Laplacian of the base
+    pattern, prefactorized): ``pattern(theta)`` gives every vertex, ``adjoint(g)``
+    gives (dp/dtheta)^T g for a gradient ``g`` with respect to all pattern vertices.
+    """
+
+    def __init__(self, mesh):
+        self.arrays = mesh_arrays(mesh)
+        a = self.arrays
+        try:
+            self._native = core().Parametrization(a.triangles, a.pbar, a.boundary)
+        except ValueError as exc:
+            raise PatternError(f"cannot parametrize the pattern: {exc}") from exc
+        self.boundary_ids = np.asarray(self._native.boundary_ids, dtype=np.int64)
+        self.interior_ids = np.asarray(self._native.interior_ids, dtype=np.int64)
+        self.pbar = a.pbar
+        self.theta_bar = a.pbar[self.boundary_ids].copy()
+        # vertex id -> theta row (-1 for interior vertices)
+        self.theta_index = np.full(a.n_vertices, -1, dtype=np.int64)
+        self.theta_index[self.boundary_ids] = np.arange(len(self.boundary_ids))
+
+    @property
+    def n_theta(self) -> int:
+        return len(self.boundary_ids)
+
+    def pattern(self, theta) -> np.ndarray:
+        """p(theta): (n_theta, 2) -> (n_vertices, 2), metres."""
+        return self._native.pattern(np.asarray(theta, dtype=float).reshape(-1, 2))
+
+    def adjoint(self, g) -> np.ndarray:
+        """(dp/dtheta)^T g: (n_vertices, 2) -> (n_theta, 2)."""
+        return self._native.adjoint(np.asarray(g, dtype=float).reshape(-1, 2))
+
+    def theta_of(self, p) -> np.ndarray:
+        """The parameters of a full pattern p (its boundary vertices)."""
+        return np.asarray(p, dtype=float)[self.boundary_ids].copy()
+
+    def laplacian(self):
+        """The base-pattern cotangent Laplacian as a scipy sparse matrix."""
+        import scipy.sparse as sp
+
+        r, c, v, shape = self._native.laplacian_triplets()
+        return sp.csr_matrix((v, (r, c)), shape=shape)

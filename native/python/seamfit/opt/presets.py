@@ -1,0 +1,63 @@
+"""Strength presets per garment kind, from the paper's Table 1.
+
+Order as in the paper: delta fix, cur, dis, smo, str, pos. The paper labels all of
+them 1/m^2. In our implementation the fix, cur, dis and pos terms sum squared
+lengths in metres, so their deltas are indeed 1/m^2 and carry over unchanged. The
+stretching term sums squared (dimensionless) stretch-ratio differences and the
+smoothness term squared differences of |L_e x| (which we normalise to a bending angle,
+dimensionless; see docs/optimizer.md), so for those two the coefficient is
+dimensionless and the "1/m^2" label does not apply. Every term is a plain sum over
+vertices, edges or hinges, as in the paper, so the balance between terms holds for
+meshes of similar resolution (the paper's 1-1.5 cm edges; ours default to 1.5 cm).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .costs import Strengths
+
+
+@dataclass(frozen=True)
+class Preset:
+    name: str
+    strengths: Strengths
+    rule: str     # when to use it
+    source: str   # the Table 1 row it comes from
+
+
+PRESETS = {
+    "fitted": Preset(
+        "fitted",
+        Strengths(fix=100, cur=1e6, dis=0.01, smo=5e-5, str=5, pos=100),
+        "stretch garments worn under tension (bodysuit, leggings, swimwear): keep the stretch ratios, "
+        "ignore looseness and folds",
+        "Bodysuit",
+    ),
+    "dress": Preset(
+        "dress",
+        Strengths(fix=100, cur=1e6, dis=1, smo=0.05, str=1, pos=100),
+        "woven garments with ease (dresses, tops, jackets): keep looseness and drape as well as stretch",
+        "Secretary Dress",
+    ),
+    "skirt_shirring": Preset(
+        "skirt_shirring",
+        Strengths(fix=100, cur=1e6, dis=0.01, smo=0.01, str=1, pos=100),
+        "gathered or shirred garments whose designed folds matter more than their distance to the body",
+        "Carmen Skirt",
+    ),
+    "pants": Preset(
+        "pants",
+        Strengths(fix=100, cur=1e6, dis=1, smo=0.05, str=1, pos=100),
+        "trousers and jumpsuits (legs and crotch): same balance as the dress, looseness per leg",
+        "Pants, Alana Jumpsuit",
+    ),
+}
+PRESETS["bodysuit"] = PRESETS["fitted"]
+
+
+def preset(name: str) -> Preset:
+    """The preset called ``name`` (fitted or bodysuit, dress, skirt_shirring, pants)."""
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise KeyError(f"unknown preset {name!r}; choose one of {sorted(PRESETS)}") from None

@@ -1,0 +1,54 @@
+"""Boundary regularizers R^fix (Eq. 9), R^cur (Eq. 10) and the preconditioner (Section 7)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .._native import core
+from ..errors import PatternError
+
+# w_i of R^cur: corners bend freely so the angle between two curves can adjust.
+CORNER_WEIGHT = 0.1
+
+
+class Regularizers:
+    """R(theta) = R^fix + R^cur over the boundary parameters of a ``Parametrization``.
+
+    R^cur's T_i is the rotation-and-uniform-scale taking the base chord
+    pbar_k - pbar_j (the outline neighbours of vertex i) to the current chord
+    p_k - p_j; with it R is quadratic and its Hessian P is constant, which is also
+    the preconditioner (prefactorized; needs delta_fix > 0).
+    """
+
+    def __init__(self, param, delta_fix: float, delta_cur: float, corner_weight: float = CORNER_WEIGHT):
+        a = param.arrays
+        self.param = param
+        weight = np.where(a.corner[param.boundary_ids], float(corner_weight), 1.0)
+        loops = []
+        for lp in a.loops:
+            idx = param.theta_index[lp]
+            if np.any(idx < 0):
+                raise PatternError("a boundary loop holds a vertex not flagged as boundary")
+            loops.append([int(i) for i in idx])
+        self.weight = weight
+        self._native = core().Regularizers(param.theta_bar, loops, weight)
+        self.set_strengths(delta_fix, delta_cur)
+
+    def set_strengths(self, delta_fix: float, delta_cur: float) -> None:
+        self.delta_fix, self.delta_cur = float(delta_fix), float(delta_cur)
+        self._native.set_strengths(self.delta_fix, self.delta_cur)
+
+    def evaluate(self, theta):
+        """-> (value, {"fix", "cur"}, gradient (n_theta, 2))."""
+        v, (rf, rc), g = self._native.evaluate(np.asarray(theta, dtype=float).reshape(-1, 2))
+        return v, {"fix": rf, "cur": rc}, g
+
+    def apply_preconditioner(self, g) -> np.ndarray:
+        """P^-1 g with P the (constant) Hessian of the regularizers."""
+        return self._native.apply_preconditioner(np.asarray(g, dtype=float).reshape(-1, 2))
+
+    def hessian(self):
+        """P as a scipy sparse matrix over theta flattened (x0, y0, x1, y1, ...)."""
+        import scipy.sparse as sp
+
+        r, c, v, shape = self._native.hessian_triplets()
+        return sp.csr_matrix((v, (r, c)), shape=shape)

@@ -204,6 +204,14 @@ def test_presets_set_strengths(scene):
     assert s.strength_preset == "CUSTOM"
     s.strength_preset = "dress"
     assert s.strength_pos == 100.0 and s.strength_preset == "dress"
+    # The presets are seamfit's own (an alias such as bodysuit is listed once).
+    from seamfit.opt import PRESETS
+    items = {i.identifier for i in s.bl_rna.properties["strength_preset"].enum_items}
+    assert items == {k for k, p in PRESETS.items() if p.name == k} | {"CUSTOM"}
+    s.strength_preset = "skirt_shirring"
+    want = PRESETS["skirt_shirring"].strengths
+    assert [getattr(s, f"strength_{k}") for k in ("fix", "cur", "dis", "smo", "str", "pos")] == \
+        pytest.approx([want.fix, want.cur, want.dis, want.smo, want.str, want.pos], rel=1e-6)
 
 
 def test_import_garmentcode_specification(scene):

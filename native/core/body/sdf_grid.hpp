@@ -28,8 +28,16 @@ struct SdfSample {
 // value at the nearest boundary point plus the distance to the grid box, with a
 // gradient pointing away from the box, so a far-away vertex is pulled back in
 // with a positive, growing phi and never sees a spurious negative value.
+// Grids have at least 2 nodes per axis (the builder guarantees it). A NaN
+// point yields a NaN phi, which callers treat as an invalid state.
 SF_HD SdfSample sdf_sample(const SdfGridView& g, Vec3 p) {
   const double h = g.spacing;
+  if (!(p.x == p.x && p.y == p.y && p.z == p.z)) {
+    SdfSample bad;
+    bad.phi = p.x + p.y + p.z;  // NaN
+    bad.grad = make_vec3(0, 0, 0);
+    return bad;
+  }
   double q[3] = {(p.x - g.origin[0]) / h, (p.y - g.origin[1]) / h, (p.z - g.origin[2]) / h};
   const int n[3] = {g.nx, g.ny, g.nz};
   double outside[3] = {0, 0, 0};

@@ -1,1 +1,0 @@
-// Translation unit anchoring the core library; domain code lives beside it.

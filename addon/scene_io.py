@@ -240,7 +240,8 @@ def stretch_colors(ratio: np.ndarray, span: float = 0.1) -> np.ndarray:
 def _stretch_material(made: list) -> bpy.types.Material:
     mat = bpy.data.materials.new("seamfit stretch")
     made.append(mat)
-    mat.use_nodes = True
+    if bpy.app.version < (5, 0, 0):     # always on (and deprecated) from 5.0
+        mat.use_nodes = True
     nt = mat.node_tree
     bsdf = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
     attr = nt.nodes.new("ShaderNodeAttribute")

@@ -338,7 +338,9 @@ def _simulator(mesh, sdf, sim_cfg: dict, device: str):
     sim = seamfit_module("sim")
     from dataclasses import fields
     fabric = sim.Fabric(**{k: float(v) for k, v in sim_cfg.get("fabric", {}).items()})
-    opts = {"mu": float(sim_cfg.get("mu", 0.01)), "max_iterations": int(sim_cfg.get("iterations", 40000))}
+    opts = {"mu": float(sim_cfg.get("mu", 0.01))}
+    if sim_cfg.get("iterations"):
+        opts["max_iterations"] = int(sim_cfg["iterations"])
     names = {f.name for f in fields(sim.SimSettings)}
     if "device" in names:
         opts["device"] = device
@@ -353,13 +355,16 @@ def base_drape(inp: RunInputs, job, span=(0.1, 0.9)):
     job.update(stage="meshing the pattern", fraction=0.01)
     mesh, mesh_key = sewn_mesh(inp.pattern_json, inp.edge_length_cm)
     job.update(stage="base body distance field", fraction=0.04)
-    sdf = body_sdf(inp.base)
+    sdf = body_sdf(inp.base, {"spacing": inp.sim.get("sdf_spacing_m", 0.0025)})
     key = digest(mesh_key, inp.base.key, inp.sim, inp.device)
 
     def make():
         simulator, settings = _simulator(mesh, sdf, inp.sim, inp.device)
-        res = simulator.drape(progress=job.callback("draping on the base body", span=span,
-                                                    target=float(settings.tolerance)))
+        # Start as `seamfit drape` does: hint placements are wrapped around the body first.
+        x0, _ = seamfit_module("sim.dressing").initial_positions(
+            mesh, pattern_from_json(inp.pattern_json), sdf, mode="auto")
+        res = simulator.drape(x0, progress=job.callback("draping on the base body", span=span,
+                                                        target=float(settings.tolerance)))
         job.check()     # a cancelled drape is never cached
         if getattr(res, "cancelled", False):
             raise Cancelled()

@@ -143,6 +143,8 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
                       description="Strength of the log barrier that keeps cloth outside the body")
     sim_iterations: IntProperty(name="Drape iterations", default=40000, min=1, soft_max=100000,
                                 description="Most simulation iterations of a drape")
+    sdf_spacing_mm: FloatProperty(name="Body grid (mm)", default=2.5, min=0.5, soft_max=20.0, precision=2,
+                                  description="Spacing of the bodies' signed distance fields (Wang 2018: 2.5 mm)")
     steps_per_iteration: IntProperty(name="S (simulation steps)", default=8, min=1, soft_max=256,
                                      description="Simulation iterations per outer iteration of the grading")
     exact_every: IntProperty(name="M (exact every)", default=32, min=1, soft_max=256,
@@ -191,7 +193,8 @@ def settings_dict(s: SEAMFIT_PG_settings) -> dict:
                            "sewing_stiffness": _exact(s.fabric_sewing),
                            "bending_stiffness": _exact(s.fabric_bending),
                            "density": _exact(s.fabric_density)},
-                "mu": _exact(s.mu), "iterations": int(s.sim_iterations)},
+                "mu": _exact(s.mu), "iterations": int(s.sim_iterations),
+                "sdf_spacing_m": _exact(s.sdf_spacing_mm) / 1000.0},
         "opt": {"S": int(s.steps_per_iteration), "M": int(s.exact_every), "iterations": int(s.iterations)},
         "device": s.device.lower(),
     }

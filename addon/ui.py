@@ -107,7 +107,7 @@ class SEAMFIT_PT_simulation(_SeamfitPanel, bpy.types.Panel):
         for name in ("fabric_stretch", "fabric_sewing", "fabric_bending", "fabric_density"):
             col.prop(s, name)
         col = self.layout.column(align=True)
-        for name in ("mu", "sim_iterations", "steps_per_iteration", "exact_every", "iterations"):
+        for name in ("mu", "sdf_spacing_mm", "sim_iterations", "steps_per_iteration", "exact_every", "iterations"):
             col.prop(s, name)
         self.layout.prop(s, "device")
         dev = compute.device_status()

@@ -1,0 +1,204 @@
+// Quasistatic garment simulator Sim_phi(theta) (Wang 2018, section 4), CPU.
+//
+// x = argmin  E_stretch + E_sewing + E_bend + G + F_stick - sum_i c_i log phi(x_i)
+//
+// Layout (shared with a future CUDA port): structure-of-arrays element lists
+// (springs, sewing pairs, hinges, triangles) plus per-vertex incidence lists
+// (CSR) so every per-vertex quantity is a gather, never an atomic scatter. The
+// per-vertex neighbour list (CSR, sorted, self included) is also the block
+// sparsity pattern of the 3N x 3N Hessian; the constant bending matrix Q lives
+// on it, and Hessian assembly writes each vertex's three columns in place.
+//
+// Units: SI. x and p in metres, forces in N, energies in J.
+// Not thread-safe: one Simulator per thread (it owns scratch buffers).
+#pragma once
+#include <Eigen/Sparse>
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "body/sdf_grid.hpp"
+#include "common/vec3.hpp"
+#include "sim/math.hpp"
+
+namespace seamfit::sim {
+
+// Invalid input or a state the model cannot evaluate (reported to Python as
+// seamfit.errors.SolveError).
+struct SimError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct SimParams {
+  double stretch_Y = 0;     // Y^patch (N): spring force scale, E = Y/(2L)(l - rL)^2
+  double sewing_Y = 0;      // Y^sewing (N/m)
+  double bend_kb = 0;       // flexural rigidity (N m)
+  double density = 0;       // areal density rho (kg/m^2)
+  Vec3 gravity{0, 0, -9.81};  // m/s^2
+  double mu = 0.01;         // dimensionless barrier strength
+  double barrier_length = 0.1;  // l_b (m): c_i = mu * l_b * g0 * m_i
+  double barrier_distance = 0.01;  // activation distance d (m): no barrier for phi >= d
+  // Barrier field: C2 cubic B-spline of the grid values (true) or the grid's
+  // trilinear interpolant (false); see sim/terms/sdf_smooth.hpp for why.
+  bool barrier_smooth = true;
+};
+
+// Standard gravity used to scale the barrier weight (kept when gravity is
+// switched off during dressing, so the body stays a barrier).
+constexpr double kG0 = 9.81;
+
+struct EnergyTerms {
+  double stretch = 0, sewing = 0, bending = 0, gravity = 0, sticking = 0, barrier = 0;
+  double total() const { return stretch + sewing + bending + gravity + sticking + barrier; }
+};
+
+struct SolveSettings {
+  int method = 0;            // 0: Chebyshev-accelerated Jacobi gradient descent, 1: Newton
+  int max_iterations = 20000;
+  double tolerance = 1e-2;   // on the relative residual |f| / |m g|
+  double max_seconds = 0;    // 0: no limit
+  double rho = 0;            // Chebyshev spectral radius; <= 0: estimate and adapt
+  double alpha = 0.9;        // Jacobi step length
+  int warmup = 16;           // plain Jacobi iterations after each (re)start
+  int check_every = 8;       // energy check / checkpoint interval (Chebyshev)
+  int progress_every = 50;   // callback interval (iterations)
+  int history_every = 10;    // residual history interval (iterations)
+  bool newton_exact_first = true;  // Newton: try the exact Hessian before the PSD one
+};
+
+struct SolveReport {
+  int iterations = 0;
+  double seconds = 0;
+  double residual = 0;       // relative residual at the returned x
+  double energy = 0;
+  bool converged = false;
+  bool cancelled = false;
+  int restarts = 0;          // Chebyshev restarts after an energy rise
+  int projections = 0;       // vertices projected out of the body
+  long rejected_steps = 0;   // vertex steps dropped by the barrier-safe step
+  double final_rho = 0, final_alpha = 0;
+  std::string message;
+  std::vector<double> hist_iter, hist_seconds, hist_residual;
+};
+
+// Progress callback: (iteration, residual) -> keep going?
+using ProgressFn = std::function<bool(int, double)>;
+
+class Simulator {
+ public:
+  // p: 2n pattern coordinates (m); tris: 3T vertex indices; sew: 2K vertex pairs.
+  Simulator(int n, const double* p, int n_tris, const int32_t* tris, int n_sew, const int32_t* sew,
+            const SimParams& params);
+
+  // --- configuration -------------------------------------------------------
+  void set_sdf(const float* values, int nx, int ny, int nz, const double origin[3], double spacing);
+  void clear_sdf();
+  bool has_sdf() const { return has_sdf_; }
+  void set_params(const SimParams& params);  // everything but the topology
+  const SimParams& params() const { return params_; }
+  void set_pattern(const double* p);         // new rest state (2n)
+  void set_shirring(const double* r);        // per patch spring (n_springs)
+  // Sticking: k (N/m) per vertex (0 = free) and target positions (3n).
+  void set_sticking(const double* k, const double* targets);
+
+  // --- sizes and layout ----------------------------------------------------
+  int n_vertices() const { return n_; }
+  int n_triangles() const { return int(tris_.size() / 3); }
+  int n_springs() const { return int(spring_v_.size() / 2); }
+  int n_sewing() const { return int(sew_v_.size() / 2); }
+  int n_hinges() const { return int(hinge_v_.size() / 4); }
+  const std::vector<int32_t>& springs() const { return spring_v_; }
+  const std::vector<int32_t>& sewing() const { return sew_v_; }
+  const std::vector<int32_t>& hinges() const { return hinge_v_; }
+  const std::vector<double>& masses() const { return mass_; }
+  const std::vector<double>& rest_lengths() const { return rest_L_; }
+  double weight_norm() const { return weight_norm_; }  // |m g0| (N), residual scale
+
+  // --- evaluation (x: 3n) --------------------------------------------------
+  // Index of the first vertex with phi <= 0 (the barrier is undefined there), or -1.
+  int first_inside(const double* x, double* phi_out = nullptr) const;
+  // Signed distance at every vertex (n); +inf everywhere when no SDF is set.
+  // barrier_field: the field the barrier sees (see SimParams::barrier_smooth);
+  // otherwise the grid's trilinear interpolant (sdf_sample).
+  void sample_phi(const double* x, double* phi, bool barrier_field = false) const;
+  // Energy (+inf if a vertex is inside the body).
+  double energy(const double* x, EnergyTerms* terms = nullptr);
+  // f = -dE/dx (3n); returns the energy. Precondition: no vertex inside.
+  double force(const double* x, double* f, EnergyTerms* terms = nullptr);
+  // Relative residual |f| / |m g0|.
+  double residual(const double* f) const;
+  // Hessian d2E/dx2 (exact) or its PSD-projected variant, 3n x 3n.
+  const Eigen::SparseMatrix<double>& hessian(const double* x, bool psd);
+  // (d2E/dx2) v, matrix-free.
+  void hess_vec(const double* x, const double* v, double* out, bool psd);
+  // (df/dp)^T lambda (2n), f = -dE/dx, matrix-free.
+  void dfdp_T(const double* x, const double* lam, double* out);
+  // Per-vertex sewing gaps |x_i - x_j| (n_sewing).
+  void sewing_gaps(const double* x, double* gaps) const;
+
+  // --- projection and solvers ----------------------------------------------
+  // Moves vertices with phi < floor outside, to phi = target. Returns the count.
+  int project_outside(double* x, double floor, double target) const;
+  double projection_gap() const;  // barrier rest gap mu * l_b (bounded)
+  // OpenMP threads for this simulator: 0 = automatic (one thread for small
+  // meshes, where fork/join costs more than the work; all threads otherwise).
+  void set_threads(int threads);
+  int threads() const { return threads_; }
+  SolveReport solve(double* x, const SolveSettings& s, const ProgressFn& progress,
+                    const std::atomic<bool>* cancel = nullptr);
+
+ private:
+  void build_topology(int n_tris, const int32_t* tris, int n_sew, const int32_t* sew);
+  void build_hessian_pattern();
+  int slot_of(int v, int u) const;
+  void update_rest_state();
+  void update_barrier_weights();
+  // Fused pass: energy terms, force, and (optionally) PSD diagonal blocks.
+  // samples: per-vertex SDF samples, written here, or read when samples_known
+  // (the caller sampled x already).
+  void evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* diag, SdfSample* samples,
+                bool samples_known = false);
+  SolveReport solve_chebyshev(double* x, const SolveSettings& s, const ProgressFn& progress,
+                              const std::atomic<bool>* cancel);
+  SolveReport solve_newton(double* x, const SolveSettings& s, const ProgressFn& progress,
+                           const std::atomic<bool>* cancel);
+  SdfSample sdf_at(Vec3 p) const;   // the barrier's field: value and gradient
+  Sym3 sdf_hess_at(Vec3 p) const;    // and its Hessian
+
+  int n_;
+  int threads_ = 1;
+  SimParams params_;
+  std::vector<double> p_;          // 2n
+  std::vector<int32_t> tris_;      // 3T
+  std::vector<int32_t> spring_v_;  // 2E
+  std::vector<int32_t> sew_v_;     // 2K
+  std::vector<int32_t> hinge_v_;   // 4H
+  // Per-vertex incidence (CSR).
+  std::vector<int32_t> vs_ptr_, vs_idx_, vs_slot_;   // springs: e*2+side, slot of the other end
+  std::vector<int32_t> vw_ptr_, vw_idx_, vw_slot_;   // sewing: partner vertex, its slot
+  std::vector<int32_t> vh_ptr_, vh_idx_;             // hinges: h*4+k
+  std::vector<int32_t> vt_ptr_, vt_idx_;             // triangles: t*3+k
+  std::vector<int32_t> nbr_ptr_, nbr_idx_, self_slot_;  // block pattern
+  // Rest state (depends on p).
+  std::vector<double> rest_L_, shirring_, hinge_K_, hinge_w_, Q_, mass_, tri_area_, barrier_c_;
+  std::vector<uint8_t> L_floored_;  // rest length clamped at L_floor_ (no p-derivative)
+  double L_floor_ = 0, m_floor_ = 0;
+  double weight_norm_ = 0;
+  // Sticking.
+  std::vector<double> stick_k_, stick_t_;
+  bool any_sticking_ = false;
+  // Body.
+  bool has_sdf_ = false;
+  std::vector<float> sdf_values_;
+  SdfGridView sdf_;
+  // Scratch.
+  std::vector<Vec3> spring_g_;
+  std::vector<Sym3> spring_H_;
+  std::vector<double> scratch_;
+  Eigen::SparseMatrix<double> H_;
+};
+
+}  // namespace seamfit::sim

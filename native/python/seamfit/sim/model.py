@@ -1,0 +1,383 @@
+"""Python face of the quasistatic garment simulator Sim_phi(theta) (Wang 2018, section 4).
+
+Units are SI throughout: positions x and pattern coordinates p in metres
+(p = 0.01 * uv_cm), forces in newtons, energies in joules. See docs/simulator.md
+for the model, the defaults and every deviation from the paper.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from typing import Any, Callable, Optional
+
+import numpy as np
+
+from .._native import core
+from ..errors import SolveError
+
+# Spring stiffness of a regular triangle lattice with edge a and springs
+# Y/a: its plane-stress 2D Young's modulus is 2 Y / (sqrt(3) a), so a fabric of
+# tensile stiffness E2D (N/m) gets Y = E2D * sqrt(3)/2 * a.
+_LATTICE = math.sqrt(3.0) / 2.0
+
+
+@dataclass
+class Fabric:
+    """Material of a medium-weight woven fabric (cotton twill / poplin class).
+
+    stretch_stiffness: in-plane tensile stiffness E*thickness (N/m). Woven cotton
+        extends about 0.5-1 % under the few N/m a garment carries; 1000 N/m puts
+        gravity-induced strain of a hanging skirt near 0.1 %.
+    sewing_stiffness: stiffness of one sewing spring (N/m). Ten times a mean
+        patch spring (0.87 * stretch_stiffness), so a seam opens far less than
+        the adjacent fabric stretches.
+    bending_stiffness: flexural rigidity D (N m). Kawabata (KES-F) bending
+        rigidity of shirting to twill cotton is 0.05-0.3 gf cm^2/cm, i.e.
+        0.5-3e-5 N m; 1e-5 is the lighter end of medium weight.
+    density: areal density (kg/m^2); 200 g/m^2 is a medium woven cotton.
+    """
+    stretch_stiffness: float = 1000.0
+    sewing_stiffness: float = 8660.0
+    bending_stiffness: float = 1.0e-5
+    density: float = 0.2
+
+    def validate(self) -> None:
+        for name in ("stretch_stiffness", "sewing_stiffness", "bending_stiffness", "density"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise SolveError(f"fabric {name} must be a finite number >= 0, got {v!r}")
+        if self.stretch_stiffness <= 0:
+            raise SolveError("fabric stretch_stiffness must be > 0")
+
+
+@dataclass
+class SimSettings:
+    """Solver and model controls.
+
+    tolerance: convergence threshold on the relative residual |f| / |m g| (the
+        norm of the net force over the norm of the vertex weights). 1e-3 means the
+        unbalanced force is a thousandth of the garment's weight.
+    mu: dimensionless barrier strength; the per-vertex weight is
+        mu * barrier_length * g * m_i, so a vertex resting on the body under its
+        own weight settles at phi = mu * barrier_length (1 mm by default).
+    """
+    method: str = "chebyshev"          # "chebyshev" | "newton"
+    tolerance: float = 1e-3
+    max_iterations: int = 40000        # per stage (Newton: at most 600)
+    max_seconds: float = 0.0           # per stage, 0 = unlimited
+    mu: float = 0.01
+    barrier_length: float = 0.1
+    barrier_distance: float = 0.01     # no barrier beyond 1 cm from the body
+    barrier_interpolation: str = "cubic"  # "cubic" (C2 B-spline) or "trilinear" SDF reading
+    gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
+    rho: float = 0.0                   # Chebyshev spectral radius, 0 = automatic
+    alpha: float = 0.9                 # Jacobi step length
+    warmup: int = 16
+    check_every: int = 8
+    progress_every: int = 50
+    history_every: int = 10
+    threads: int = 0                   # OpenMP threads, 0 = automatic
+    # Dressing stages (see Simulator.drape).
+    sew_first: bool = True             # stage 1: close the seams with gravity off
+    sew_stage_tolerance: float = 1e-2
+    sew_stage_gap_mm: float = 1.0
+
+    def validate(self) -> None:
+        if self.method not in ("chebyshev", "newton"):
+            raise SolveError(f"unknown solver method {self.method!r} (chebyshev or newton)")
+        if not (self.tolerance > 0):
+            raise SolveError("tolerance must be > 0")
+        if not (0 <= self.mu <= 1):
+            raise SolveError(f"mu must lie in [0, 1], got {self.mu}")
+        if self.barrier_interpolation not in ("cubic", "trilinear"):
+            raise SolveError(f"unknown barrier_interpolation {self.barrier_interpolation!r} (cubic or trilinear)")
+        if not (self.barrier_distance > 0):
+            raise SolveError("barrier_distance must be > 0")
+        if self.max_iterations < 0:
+            raise SolveError("max_iterations must be >= 0")
+
+
+@dataclass
+class DrapeResult:
+    x: np.ndarray                      # (N, 3) metres
+    iterations: int
+    seconds: float
+    residual: float                    # relative residual |f| / |m g|
+    converged: bool
+    message: str
+    max_sewing_gap_mm: float
+    min_phi_mm: float
+    energy_terms: dict[str, float]
+    cancelled: bool = False
+    stages: list[dict[str, Any]] = field(default_factory=list)
+    history: dict[str, list] = field(default_factory=dict)
+
+    def report(self) -> dict[str, Any]:
+        """JSON-ready summary."""
+        return {
+            "iterations": int(self.iterations), "seconds": float(self.seconds),
+            "residual": float(self.residual), "converged": bool(self.converged),
+            "cancelled": bool(self.cancelled), "message": self.message,
+            "max_sewing_gap_mm": float(self.max_sewing_gap_mm), "min_phi_mm": float(self.min_phi_mm),
+            "energy_terms": {k: float(v) for k, v in self.energy_terms.items()},
+            "stages": [{k: v for k, v in s.items() if not k.startswith("history")} for s in self.stages],
+        }
+
+
+def _field(obj, name, required=True):
+    if isinstance(obj, dict):
+        val = obj.get(name)
+    else:
+        val = getattr(obj, name, None)
+    if val is None and required:
+        raise SolveError(f"the mesh has no field {name!r}")
+    return val
+
+
+class Simulator:
+    """Quasistatic simulator of one sewn garment on one body.
+
+    mesh: a SewnMesh-like object (uv_cm (N,2), x0 (N,3) m, triangles (T,3),
+        sewing_pairs (K,2)); sdf: a SignedDistanceField-like object (values
+        (nz,ny,nx), origin (3,), spacing) or None for no body.
+    shirring: optional per-patch-spring scale r_s (see `springs`), or a scalar.
+    """
+
+    def __init__(self, mesh, sdf=None, fabric: Fabric | None = None, settings: SimSettings | None = None,
+                 shirring=None):
+        self.fabric = fabric or Fabric()
+        self.settings = settings or SimSettings()
+        self.fabric.validate()
+        self.settings.validate()
+        uv = np.asarray(_field(mesh, "uv_cm"), dtype=np.float64)
+        tris = np.asarray(_field(mesh, "triangles"), dtype=np.int32)
+        sew = _field(mesh, "sewing_pairs", required=False)
+        sew = np.zeros((0, 2), np.int32) if sew is None or len(sew) == 0 else np.asarray(sew, dtype=np.int32)
+        x0 = _field(mesh, "x0", required=False)
+        if uv.ndim != 2 or uv.shape[1] != 2 or len(uv) == 0:
+            raise SolveError("mesh uv_cm must have shape (N, 2) with N > 0")
+        if tris.ndim != 2 or tris.shape[1] != 3 or len(tris) == 0:
+            raise SolveError("mesh triangles must have shape (T, 3) with T > 0")
+        self.mesh = mesh
+        self.p = 0.01 * uv
+        self.x0 = None if x0 is None else np.asarray(x0, dtype=np.float64).reshape(-1, 3)
+        if self.x0 is not None and len(self.x0) != len(uv):
+            raise SolveError(f"mesh x0 has {len(self.x0)} rows for {len(uv)} vertices")
+        self._core = core().Simulator(self.p, tris, sew, core().SimParams())
+        # Y from the tensile stiffness and the mean rest edge length (constant
+        # afterwards, so d/dp does not see it).
+        self.mean_edge = float(np.mean(self._core.rest_lengths))
+        self._apply_params()
+        self._core.threads = int(self.settings.threads)
+        if sdf is not None:
+            self.set_body(sdf)
+        if shirring is not None:
+            self.set_shirring(shirring)
+
+    # ----------------------------------------------------------------- setup
+    def _params(self, gravity_scale: float = 1.0, sewing_scale: float = 1.0):
+        f, s = self.fabric, self.settings
+        pr = core().SimParams()
+        pr.stretch_Y = f.stretch_stiffness * _LATTICE * self.mean_edge
+        pr.sewing_Y = f.sewing_stiffness * sewing_scale
+        pr.bend_kb = f.bending_stiffness
+        pr.density = f.density
+        pr.gravity = [gravity_scale * g for g in s.gravity]
+        pr.mu = s.mu
+        pr.barrier_length = s.barrier_length
+        pr.barrier_distance = s.barrier_distance
+        pr.barrier_smooth = s.barrier_interpolation == "cubic"
+        return pr
+
+    def _apply_params(self, gravity_scale: float = 1.0, sewing_scale: float = 1.0):
+        self._core.params = self._params(gravity_scale, sewing_scale)
+
+    def set_body(self, sdf) -> None:
+        values = np.asarray(_field(sdf, "values"), dtype=np.float32)
+        origin = np.asarray(_field(sdf, "origin"), dtype=np.float64).reshape(3)
+        spacing = float(_field(sdf, "spacing"))
+        if values.ndim != 3:
+            raise SolveError("SDF values must be a 3D array shaped (nz, ny, nx)")
+        self.sdf = sdf
+        self._core.set_sdf(values, origin, spacing)
+
+    def set_pattern(self, p: np.ndarray) -> None:
+        """New rest state p (N, 2), metres."""
+        self.p = np.asarray(p, dtype=np.float64).reshape(-1, 2).copy()
+        self._core.set_pattern(self.p)
+
+    def set_shirring(self, r) -> None:
+        r = np.broadcast_to(np.asarray(r, dtype=np.float64), (self._core.n_springs,)).copy()
+        self._core.set_shirring(r)
+
+    def set_sticking(self, vertices, targets, stiffness: float | np.ndarray = 100.0) -> None:
+        """Pin vertices (pins, belts) to targets (len(vertices), 3) with stiffness N/m."""
+        k = np.zeros(self.n_vertices)
+        t = np.zeros((self.n_vertices, 3))
+        vertices = np.asarray(vertices, dtype=np.int64)
+        k[vertices] = stiffness
+        t[vertices] = np.asarray(targets, dtype=np.float64).reshape(-1, 3)
+        self._core.set_sticking(k, t)
+
+    # ---------------------------------------------------------------- layout
+    @property
+    def core(self):
+        return self._core
+
+    @property
+    def n_vertices(self) -> int:
+        return self._core.n_vertices
+
+    @property
+    def springs(self) -> np.ndarray:
+        return self._core.springs
+
+    @property
+    def sewing(self) -> np.ndarray:
+        return self._core.sewing
+
+    @property
+    def masses(self) -> np.ndarray:
+        return self._core.masses
+
+    # ------------------------------------------------------------ evaluation
+    def energy(self, x) -> tuple[float, dict[str, float]]:
+        return self._core.energy(np.asarray(x, dtype=np.float64))
+
+    def force(self, x) -> np.ndarray:
+        """f = -dE/dx, shape (N, 3)."""
+        return self._core.force(np.asarray(x, dtype=np.float64))
+
+    def residual(self, x) -> float:
+        return self._core.residual(np.asarray(x, dtype=np.float64))
+
+    def hessian(self, x, psd: bool = False):
+        """d2E/dx2 (the tangent stiffness, = -df/dx) as scipy.sparse.csc_matrix, 3N x 3N."""
+        import scipy.sparse as sp
+        data, indices, indptr, shape = self._core.hessian(np.asarray(x, dtype=np.float64), psd)
+        return sp.csc_matrix((data, indices, indptr), shape=shape)
+
+    def hess_vec(self, x, v, psd: bool = False) -> np.ndarray:
+        return self._core.hess_vec(np.asarray(x, dtype=np.float64), np.asarray(v, dtype=np.float64), psd)
+
+    def dfdp_T(self, x, lam) -> np.ndarray:
+        """(df/dp)^T lam, shape (N, 2), for the adjoint (p in metres)."""
+        return self._core.dfdp_T(np.asarray(x, dtype=np.float64), np.asarray(lam, dtype=np.float64))
+
+    def phi(self, x, barrier_field: bool = False) -> np.ndarray:
+        """phi at every vertex: the SDF grid's trilinear field (the body as
+        measured), or with barrier_field the smooth field the barrier acts on."""
+        return self._core.sample_phi(np.asarray(x, dtype=np.float64), barrier_field)
+
+    def sewing_gaps(self, x) -> np.ndarray:
+        return self._core.sewing_gaps(np.asarray(x, dtype=np.float64))
+
+    # --------------------------------------------------------------- solving
+    def _settings(self, tolerance=None, max_iterations=None, method=None):
+        s = self.settings
+        st = core().SolveSettings()
+        m = method or s.method
+        st.method = 1 if m == "newton" else 0
+        st.tolerance = float(tolerance if tolerance is not None else s.tolerance)
+        mi = s.max_iterations if max_iterations is None else max_iterations
+        st.max_iterations = int(min(mi, 600) if m == "newton" and max_iterations is None else mi)
+        st.max_seconds = float(s.max_seconds)
+        st.rho = float(s.rho)
+        st.alpha = float(s.alpha)
+        st.warmup = int(s.warmup)
+        st.check_every = int(s.check_every)
+        st.progress_every = int(s.progress_every if st.method == 0 else 1)
+        st.history_every = int(s.history_every)
+        return st
+
+    def solve(self, x0=None, *, tolerance=None, max_iterations=None, method=None,
+              progress: Optional[Callable[[int, float], bool]] = None,
+              gravity_scale: float = 1.0, sewing_scale: float = 1.0) -> DrapeResult:
+        """One quasistatic solve from x0 (default: the mesh's x0)."""
+        x = self._start(x0)
+        self._apply_params(gravity_scale, sewing_scale)
+        try:
+            x, rep = self._core.solve(x, self._settings(tolerance, max_iterations, method), progress)
+        finally:
+            self._apply_params()
+        return self._result(x, [dict(rep, stage="solve")])
+
+    def drape(self, x0=None, progress: Optional[Callable[[int, float], bool]] = None) -> DrapeResult:
+        """Dress the garment: close the seams with gravity off, then settle under gravity.
+
+        Stage 1 ("sew", skipped when settings.sew_first is False or the mesh has no
+        seams) runs until the residual falls below settings.sew_stage_tolerance or
+        the largest seam gap below settings.sew_stage_gap_mm; stage 2 ("settle")
+        runs to settings.tolerance. progress(iteration, residual) is called every
+        settings.progress_every iterations, counting over both stages; returning
+        False cancels (reported in the result, never raised).
+        """
+        x = self._start(x0)
+        stages = []
+        offset = [0]
+
+        def relay(it, res):
+            return True if progress is None else progress(offset[0] + it, res)
+
+        if self.settings.sew_first and self._core.n_sewing > 0:
+            self._apply_params(gravity_scale=0.0)
+            st = self._settings(tolerance=self.settings.sew_stage_tolerance)
+            try:
+                # Chunks so the seam gap can end the stage early.
+                done = 0
+                while True:
+                    chunk = min(2000, max(st.max_iterations - done, 0))
+                    st_chunk = self._settings(tolerance=self.settings.sew_stage_tolerance, max_iterations=chunk)
+                    x, rep = self._core.solve(x, st_chunk, relay)
+                    done += rep["iterations"]
+                    offset[0] += rep["iterations"]
+                    rep = dict(rep, stage="sew", iterations=done)
+                    gap = float(np.max(self.sewing_gaps(x))) * 1000.0
+                    if (rep["converged"] or rep["cancelled"] or gap <= self.settings.sew_stage_gap_mm
+                            or done >= st.max_iterations or chunk == 0 or self._core.n_vertices == 0):
+                        break
+                stages.append(rep)
+            finally:
+                self._apply_params()
+            if rep["cancelled"]:
+                return self._result(x, stages)
+        x, rep = self._core.solve(x, self._settings(), relay)
+        stages.append(dict(rep, stage="settle"))
+        return self._result(x, stages)
+
+    def _start(self, x0) -> np.ndarray:
+        if x0 is None:
+            if self.x0 is None:
+                raise SolveError("no start positions: the mesh has no x0 and none was given")
+            x0 = self.x0
+        x = np.array(x0, dtype=np.float64).reshape(-1, 3)
+        if len(x) != self.n_vertices:
+            raise SolveError(f"start positions have {len(x)} rows for {self.n_vertices} vertices")
+        if not np.all(np.isfinite(x)):
+            raise SolveError("start positions contain non-finite values")
+        return x
+
+    def _result(self, x: np.ndarray, stages: list[dict]) -> DrapeResult:
+        last = stages[-1]
+        e, terms = self._core.energy(x)
+        gaps = self.sewing_gaps(x)
+        phi = self.phi(x) if self._core.has_sdf else np.array([np.inf])
+        hist = {"iteration": [], "seconds": [], "residual": []}
+        it0, t0 = 0, 0.0
+        for s in stages:
+            hist["iteration"] += [it0 + i for i in s["history_iteration"]]
+            hist["seconds"] += [t0 + t for t in s["history_seconds"]]
+            hist["residual"] += list(s["history_residual"])
+            it0 += s["iterations"]
+            t0 += s["seconds"]
+        if not np.all(np.isfinite(x)):
+            raise SolveError("internal error: the solver produced non-finite positions")
+        msg = "; ".join(f"{s['stage']}: {s['message']}" for s in stages)
+        return DrapeResult(
+            x=x, iterations=int(sum(s["iterations"] for s in stages)),
+            seconds=float(sum(s["seconds"] for s in stages)), residual=float(last["residual"]),
+            converged=bool(last["converged"]), cancelled=bool(any(s["cancelled"] for s in stages)),
+            message=msg, max_sewing_gap_mm=float(gaps.max() * 1000.0) if len(gaps) else 0.0,
+            min_phi_mm=float(phi.min() * 1000.0), energy_terms=dict(terms),
+            stages=stages, history=hist)

@@ -176,13 +176,27 @@ def body_report(body: BodyInput) -> dict:
     return {"errors": errors, "warnings": warnings, "measurements": measurements}
 
 
+def _welded_faces(g: "Garment") -> np.ndarray:
+    """Triangles with each group of sewn vertices replaced by one of them: the panels form
+    one surface, so a horizontal section of the garment is a closed loop round the body."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    n = len(g.x)
+    pairs = np.asarray(g.sewing_pairs).reshape(-1, 2)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    first = np.full(label.max() + 1, n)
+    np.minimum.at(first, label, np.arange(n))
+    return first[label][np.asarray(g.triangles)]
+
+
 def fit_ease(body: BodyInput, g: Garment) -> dict:
     """Ease in cm (garment girth minus body girth) at the body's bust, waist and hip levels;
     a level the garment does not reach around the body is left out."""
     b = seamfit_module("body")
     m = body_measurements(body)
     levels = m.get("levels_z_m", {})
-    shell = b.Body(g.x, g.triangles, name="garment")
+    shell = b.Body(g.x, _welded_faces(g), name="garment")
     out = {}
     for key in ("bust", "waist", "hip"):
         if key not in levels or key not in m:

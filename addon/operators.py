@@ -30,9 +30,19 @@ def capture_body(obj, depsgraph) -> compute.BodyInput:
         ev.to_mesh_clear()
     if len(t) == 0:
         raise compute.AddonError(f"body {obj.name!r} has no faces")
-    m = np.array(obj.matrix_world)
-    v = v.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+    # Blender keeps float32; the shortest decimal of each float32 is the number the mesh file
+    # held (OBJ/PLY bodies carry at most 7 digits), so seamfit gets the very body the command
+    # line reads from that file, not one perturbed by 1e-7.
+    v = _decimal_f32(v).reshape(-1, 3)
+    m = _decimal_f32(np.array(obj.matrix_world, dtype=np.float32).ravel()).reshape(4, 4)
+    if not np.array_equal(m, np.eye(4)):
+        v = v @ m[:3, :3].T + m[:3, 3]
     return compute.BodyInput(obj.name, v, t.reshape(-1, 3))
+
+
+def _decimal_f32(a) -> np.ndarray:
+    """float64 of the shortest decimal that gives back each float32 (numpy's repr)."""
+    return np.array([float(repr(x)) for x in np.asarray(a, dtype=np.float32)], dtype=np.float64)
 
 
 def pattern_name(pattern, filepath: str) -> str:

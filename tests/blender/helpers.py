@@ -58,7 +58,7 @@ def scene_fingerprint() -> dict:
 def import_obj(path: Path, name: str):
     """Import an OBJ body as it comes (Z up, metres), the way a user would."""
     before = set(bpy.data.objects)
-    bpy.ops.wm.obj_import(filepath=str(path), forward_axis="NEGATIVE_Y", up_axis="Z")
+    bpy.ops.wm.obj_import(filepath=str(path), forward_axis="Y", up_axis="Z")
     new = [o for o in bpy.data.objects if o not in before]
     assert len(new) == 1
     new[0].name = name
@@ -78,3 +78,10 @@ def undo_push(message: str) -> None:
 def undo() -> None:
     with window_override():
         bpy.ops.ed.undo()
+
+
+def extension_site_packages() -> Path:
+    """Where Blender unpacked the extension's wheels."""
+    import sys
+    (site,) = [p for p in sys.path if p.endswith("site-packages") and "extensions" in p]
+    return Path(site)

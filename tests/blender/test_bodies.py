@@ -12,7 +12,9 @@ def test_obj_import_keeps_body_coordinates(scene):
     obj = import_obj(BODY_BASE, "base")
     co = np.empty(len(obj.data.vertices) * 3)
     obj.data.vertices.foreach_get("co", co)
-    assert np.allclose(co.reshape(-1, 3), load_body(BODY_BASE).vertices, atol=1e-6)
+    m = np.array(obj.matrix_world)
+    world = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+    assert np.allclose(world, load_body(BODY_BASE).vertices, atol=1e-6)
 
 
 def test_check_bodies_measures_like_seamfit(scene):

@@ -1,15 +1,21 @@
 #!/usr/bin/env bash
-# Set up (see setup.sh) and run the main job on the sample files, writing into out/demo:
-# the sewn mesh of the base pattern, the body's signed distance field, pictures and reports.
+# Set up (see setup.sh) and run the main job on the sample files: grade the sample pencil
+# skirt from the base body (US size 6) to size 10. Writes into out/demo/grade the adjusted
+# pattern (pattern.json), the graded nest (pattern.svg), the drape on the new body
+# (garment.obj, drape.png) and report.json, which also compares the result with the
+# pattern the drafting system made for size 10.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 out=out/demo
 mkdir -p "$out"
 sf=.venv/bin/seamfit
-pattern=sample_files/patterns/gc_pencil_skirt/size06/pattern.json
-base=sample_files/bodies/women_size06.obj
+samples=sample_files
+pattern=$samples/patterns/gc_pencil_skirt/size06/pattern.json
 $sf validate "$pattern"
-$sf mesh "$pattern" --out "$out/mesh"
-$sf sdf "$base" --out "$out/base_body.sdf.npz"
-echo "demo results in $out"
+$sf grade "$pattern" \
+    --base-body $samples/bodies/women_size06.obj \
+    --target-body $samples/bodies/women_size10.obj \
+    --truth $samples/patterns/gc_pencil_skirt/size10/pattern.json \
+    --edge-length 3 --max-iterations 64 --out "$out/grade"
+echo "results in $out/grade: pattern.json pattern.svg garment.obj drape.png report.json"

@@ -1,0 +1,165 @@
+"""``seamfit grade PATTERN --base-body B0 --target-body B1 --out DIR``: the main job.
+
+Writes, all new files in DIR (the input pattern is never touched):
+  pattern.json   the adjusted pattern (sewpat-1, same panels, stitches and landmarks,
+                 curves refitted to the moved boundary)
+  pattern.svg    the graded nest: base pattern in black, adjusted pattern in colour
+  garment.obj    the final drape on the target body (vt = adjusted pattern, cm)
+  drape.png      front, side and back views of that drape
+  report.json    objectives and terms before/after, iterations, timings, checks, ease
+Exit code 0 when the optimization converged, 1 when it stopped at its budget (the
+files are still written and say so), 2 on an error.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from ..errors import SeamfitError
+
+EPILOG = """\
+Presets (strengths fix, cur, dis, smo, str, pos from the paper's Table 1):
+  dress           woven garments with ease: dresses, tops, skirts (default)
+  fitted          stretch garments worn under tension (bodysuit, leggings)
+  skirt_shirring  gathered or shirred garments
+  pants           trousers and jumpsuits
+See docs/method.md for the method and docs/cli.md for examples.
+"""
+
+
+def register(subparsers) -> None:
+    from ..opt.grade import GradeSettings
+    from ..opt.presets import PRESETS
+    d = GradeSettings()
+    p = subparsers.add_parser(
+        "grade", help="adjust a base pattern to a new body (pattern, nest SVG, drape, report)",
+        description="Compute the pattern that makes the garment fit TARGET the way the base pattern "
+                    "fits BASE (rule-free grading and made-to-measure).",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("pattern", metavar="PATTERN", type=Path, help="base pattern (sewpat-1 or GarmentCode .json)")
+    p.add_argument("--base-body", metavar="B0", type=Path, required=True,
+                   help="body the base pattern fits (.obj/.ply, metres, Z up, facing -Y)")
+    p.add_argument("--target-body", metavar="B1", type=Path, required=True,
+                   help="body to grade to; must share the base body's mesh topology")
+    p.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder (created if missing)")
+    p.add_argument("--preset", choices=sorted(PRESETS), default=d.preset, help=f"strength preset (default {d.preset})")
+    for name in ("fix", "cur", "dis", "smo", "str", "pos"):
+        p.add_argument(f"--{name}", type=float, default=None, metavar="DELTA",
+                       help=f"override the preset's {name} strength (0 skips the term)")
+    p.add_argument("--edge-length", metavar="CM", type=float, default=d.edge_length_cm,
+                   help=f"mesh edge length in cm (default {d.edge_length_cm})")
+    p.add_argument("--sdf-spacing", metavar="M", type=float, default=d.sdf_spacing,
+                   help=f"body SDF spacing in metres (default {d.sdf_spacing})")
+    p.add_argument("--inner-iterations", "-S", metavar="S", type=int, default=d.inner_iterations,
+                   help=f"simulation iterations per outer iteration (default {d.inner_iterations})")
+    p.add_argument("--checkpoint-every", "-M", metavar="M", type=int, default=d.checkpoint_every,
+                   help=f"exact simulation every M outer iterations (default {d.checkpoint_every})")
+    p.add_argument("--max-iterations", metavar="N", type=int, default=d.max_outer_iterations,
+                   help=f"outer iteration budget (default {d.max_outer_iterations})")
+    p.add_argument("--time-budget", metavar="S", type=float, default=0.0, help="stop after S seconds (default: none)")
+    p.add_argument("--truth", metavar="PATTERN", type=Path, default=None,
+                   help="a pattern drafted for the target body: report landmark errors against it")
+    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto",
+                   help="compute device (the optimizer runs on the CPU in this version; cuda fails "
+                        "with a message when unavailable)")
+    p.add_argument("--no-picture", action="store_true", help="do not write drape.png")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..body import load_body
+    from ..device import resolve_device
+    from ..fileio import atomic_write_text
+    from ..mesh import write_obj
+    from ..opt.grade import GradeSettings, grade
+    from ..opt.presets import preset
+    from ..pattern import load_pattern, save_pattern, write_svg
+
+    from ..errors import DeviceError
+    resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
+    if args.device == "cuda":
+        raise DeviceError("--device cuda: the grading loop runs on the CPU in this version; "
+                          "use --device cpu or auto")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise SeamfitError(f"{out}: exists and is not a folder")
+    strengths = preset(args.preset).strengths
+    overrides = {k: getattr(args, k) for k in ("fix", "cur", "dis", "smo", "str", "pos") if getattr(args, k) is not None}
+    if overrides:
+        from dataclasses import replace
+        strengths = replace(strengths, **overrides)
+    settings = GradeSettings(preset=args.preset, strengths=strengths, edge_length_cm=args.edge_length,
+                             sdf_spacing=args.sdf_spacing, inner_iterations=args.inner_iterations,
+                             checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,
+                             time_budget_s=args.time_budget)
+    t0 = time.perf_counter()
+
+    def progress(info):
+        if args.quiet:
+            return None
+        if info.get("stage") == "optimize":
+            if info.get("exact"):
+                tag = "backtrack" if info.get("backtrack") else "checkpoint"
+                print(f"[{time.perf_counter() - t0:7.1f}s] outer {info['iteration']:4d}  objective "
+                      f"{info['objective']:.6g}  ({tag})", file=sys.stderr, flush=True)
+        elif "sim_iteration" not in info:
+            print(f"[{time.perf_counter() - t0:7.1f}s] {info['stage']}", file=sys.stderr, flush=True)
+        return None
+
+    base_pattern = load_pattern(args.pattern)
+    base_body = load_body(args.base_body)
+    target_body = load_body(args.target_body)
+    result = grade(base_pattern, base_body, target_body, settings, progress=progress)
+    report = dict(result.report)
+    report["inputs"] = {"pattern": str(args.pattern), "base_body": str(args.base_body),
+                        "target_body": str(args.target_body)}
+    if args.truth is not None:
+        from ..pattern.compare import baseline_errors, landmark_errors
+        truth = load_pattern(args.truth)
+        report["accuracy"] = {"truth": str(args.truth),
+                              "graded": landmark_errors(result.pattern, truth).to_dict(),
+                              "base_unchanged": baseline_errors(base_pattern, truth).to_dict()}
+
+    out.mkdir(parents=True, exist_ok=True)
+    result.pattern.body_id = target_body.name
+    save_pattern(result.pattern, out / "pattern.json", overwrite=True)
+    write_svg(out / "pattern.svg", [base_pattern, result.pattern],
+              labels=[f"base ({base_body.name})", f"graded ({target_body.name})"])
+    write_obj(out / "garment.obj", _with_uv(result.mesh, result.uv_cm), positions=result.x)
+    if not args.no_picture:
+        from ..sim.render import render_drape
+        render_drape(out / "drape.png", result.x, result.mesh.triangles, result.mesh.triangle_panel,
+                     body_vertices=target_body.vertices, body_faces=target_body.faces,
+                     title=f"{base_pattern.garment_id or args.pattern.stem} graded to {target_body.name}")
+    atomic_write_text(out / "report.json", json.dumps(report, indent=1, default=_jsonable) + "\n")
+    if not args.quiet:
+        r = report
+        print(f"objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} "
+              f"({100 * r['objective_reduction']:.1f} % lower) in {r['outer_iterations']} iterations, "
+              f"{r['seconds_total']:.1f} s; max pattern change {r['max_displacement_mm']:.1f} mm", file=sys.stderr)
+        if "accuracy" in r:
+            print(f"landmark error vs truth: max {r['accuracy']['graded']['max_cm']:.2f} cm "
+                  f"(unchanged base: {r['accuracy']['base_unchanged']['max_cm']:.2f} cm)", file=sys.stderr)
+        print(f"wrote {out}/pattern.json, pattern.svg, garment.obj, report.json", file=sys.stderr)
+    return 0 if report["converged"] else 1
+
+
+def _with_uv(mesh, uv_cm):
+    """The sewn mesh with its pattern coordinates replaced by the adjusted ones."""
+    import copy
+    m = copy.copy(mesh)
+    m.uv_cm = uv_cm
+    return m
+
+
+def _jsonable(o):
+    import numpy as np
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    return str(o)

@@ -1,0 +1,102 @@
+"""The whole grading run (paper Algorithm 1) on a sample garment, coarse enough for CI:
+the pencil skirt graded from the base body (size 6) to size 10, through the CLI."""
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from seamfit.cli import main
+from seamfit.pattern import load_pattern
+
+ROOT = Path(__file__).resolve().parents[1] / "sample_files"
+PATTERN = ROOT / "patterns/gc_pencil_skirt/size06/pattern.json"
+TRUTH = ROOT / "patterns/gc_pencil_skirt/size10/pattern.json"
+B0 = ROOT / "bodies/women_size06.obj"
+B1 = ROOT / "bodies/women_size10.obj"
+
+
+def _sha(path):
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory):
+    out = tmp_path_factory.mktemp("grade")
+    before = _sha(PATTERN)
+    code = main(["grade", str(PATTERN), "--base-body", str(B0), "--target-body", str(B1), "--out", str(out),
+                 "--edge-length", "4", "--sdf-spacing", "0.005", "--max-iterations", "32",
+                 "--checkpoint-every", "16", "--smo", "0", "--truth", str(TRUTH), "-q"])
+    assert code in (0, 1)
+    assert _sha(PATTERN) == before, "the input pattern must never be modified"
+    return out, json.loads((out / "report.json").read_text())
+
+
+def test_writes_pattern_nest_drape_and_report(graded):
+    out, rep = graded
+    for name in ("pattern.json", "pattern.svg", "garment.obj", "drape.png", "report.json"):
+        assert (out / name).stat().st_size > 0, name
+    for key in ("objective_initial", "objective_final", "terms_initial", "terms_final", "outer_iterations",
+                "seconds_total", "seconds_per_iteration", "seconds_precompute", "max_displacement_mm",
+                "seam_mismatch_mm", "ease_cm", "converged"):
+        assert key in rep, key
+
+
+def test_adjusted_pattern_keeps_the_structure(graded):
+    out, _ = graded
+    base, res = load_pattern(PATTERN), load_pattern(out / "pattern.json")
+    assert [p.name for p in res.panels] == [p.name for p in base.panels]
+    assert len(res.stitches) == len(base.stitches)
+    for pb, pr in zip(base.panels, res.panels):
+        assert pr.n_vertices == pb.n_vertices
+        assert pr.landmarks == pb.landmarks and pr.corners == pb.corners
+        assert [e.kind for e in pr.edges if e.kind == "line"] == [e.kind for e in pb.edges if e.kind == "line"]
+        assert np.all(np.isfinite(pr.outline_cm))
+    # the pattern did change, by a plausible amount for one size step (mm to cm)
+    assert 0.5 < _max_move(base, res) < 60.0
+
+
+def _max_move(a, b):
+    return 10 * max(float(np.linalg.norm(pa.outline_cm - pb.outline_cm, axis=1).max())
+                    for pa, pb in zip(a.panels, b.panels))
+
+
+def test_objective_falls_and_checkpoints_never_rise(graded):
+    _, rep = graded
+    objs = [c["objective"] for c in rep["checkpoints"]]
+    assert all(b <= a for a, b in zip(objs, objs[1:])), objs
+    assert rep["objective_final"] <= rep["objective_initial"]
+    # the initialization beats the unchanged base pattern draped on the target
+    assert rep["objective_initial"] < rep["objective_base_pattern"]
+
+
+def test_final_drape_is_sewn_and_outside_the_body(graded):
+    _, rep = graded
+    assert rep["drape"]["max_sewing_gap_mm"] <= 2.0
+    assert rep["drape"]["min_phi_mm"] >= -1.0
+
+
+def test_zero_strength_terms_are_never_evaluated(graded):
+    _, rep = graded
+    assert rep["strengths"]["smo"] == 0
+    assert rep["cost_evaluations"]["smo"] == 0
+    assert rep["cost_evaluations"]["pos"] > 0
+
+
+def test_accuracy_against_the_drafted_size_is_reported(graded):
+    _, rep = graded
+    acc = rep["accuracy"]
+    assert np.isfinite(acc["graded"]["max_cm"]) and acc["graded"]["max_cm"] < 5.0
+
+
+def test_device_cuda_without_a_gpu_fails_clearly(tmp_path, capsys):
+    import seamfit._core as core
+    if core.cuda_device_count() > 0:
+        pytest.skip("a GPU is present: this case checks machines without one")
+    code = main(["grade", str(PATTERN), "--base-body", str(B0), "--target-body", str(B1),
+                 "--out", str(tmp_path / "x"), "--device", "cuda"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "cuda" in err and ("no CUDA" in err or "without nvcc" in err)
+    assert not (tmp_path / "x").exists()

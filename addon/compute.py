@@ -5,6 +5,7 @@ on plain data captured from the scene on the main thread.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import json
 from dataclasses import dataclass, field
 from typing import Any
@@ -176,45 +177,13 @@ def body_report(body: BodyInput) -> dict:
     return {"errors": errors, "warnings": warnings, "measurements": measurements}
 
 
-def _welded_faces(g: "Garment") -> np.ndarray:
-    """Triangles with each group of sewn vertices replaced by one of them: the panels form
-    one surface, so a horizontal section of the garment is a closed loop round the body."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    n = len(g.x)
-    pairs = np.asarray(g.sewing_pairs).reshape(-1, 2)
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
-    first = np.full(label.max() + 1, n)
-    np.minimum.at(first, label, np.arange(n))
-    return first[label][np.asarray(g.triangles)]
-
-
-def fit_ease(body: BodyInput, g: Garment) -> dict:
-    """Ease in cm (garment girth minus body girth) at the body's bust, waist and hip levels;
-    a level the garment does not reach around the body is left out."""
-    b = seamfit_module("body")
-    m = body_measurements(body)
-    levels = m.get("levels_z_m", {})
-    shell = b.Body(g.x, _welded_faces(g), name="garment")
-    out = {}
-    for key in ("bust", "waist", "hip"):
-        if key not in levels or key not in m:
-            continue
-        girth = float(b.cross_section_girth(shell, float(levels[key])))
-        if np.isfinite(girth) and girth > 0:
-            out[key] = 100.0 * girth - float(m[key])
-    return out
-
-
-def body_sdf(body: BodyInput, settings: dict | None = None):
-    settings = dict(settings or {})
-    key = digest(body.key, settings)
-
-    def make():
-        b = seamfit_module("body")
-        return b.build_sdf(body_object(body), **settings)
-    return CACHE.get("sdf", key, make)
+def fit_ease(body: BodyInput, g: "Garment") -> dict:
+    """Ease in cm (garment tape girth minus body girth) at the body's bust, waist and hip
+    levels, by seamfit's fit measure; a level the garment does not cover is left out."""
+    fit = seamfit_module("opt.fit")
+    levels = body_measurements(body).get("levels_z_m")
+    report = fit.ease_report(body_object(body), g.x, g.triangles, levels)
+    return {k: float(v) for k, v in report.items() if v is not None}
 
 
 # ---------------------------------------------------------------------------
@@ -233,19 +202,24 @@ def sewn_mesh(pattern_json: str, edge_length_cm: float):
 # Device
 
 def device_status() -> dict:
-    """Which compute devices the installed seamfit can use."""
-    out = {"cuda_built": False, "cuda_devices": 0, "cuda_name": "", "error": ""}
+    """Whether the installed seamfit can use a CUDA GPU here, and why not."""
     try:
-        from seamfit import _native
-        core = _native.core()
-        out["cuda_built"] = bool(getattr(core, "built_with_cuda", False))
-        if out["cuda_built"]:
-            out["cuda_devices"] = int(core.cuda_device_count())
-            if out["cuda_devices"]:
-                out["cuda_name"] = str(core.cuda_device_name(0))
-    except Exception as exc:  # a broken install is shown, not raised, in a panel
-        out["error"] = str(exc)
-    return out
+        ok, why = seamfit_module("device").cuda_available()
+        name = ""
+        if ok:
+            from seamfit import _native
+            name = str(_native.core().cuda_device_name(0))
+        return {"cuda": bool(ok), "why": why, "name": name, "error": ""}
+    except Exception as exc:   # a broken install is shown in the panel, not raised while drawing
+        return {"cuda": False, "why": "", "name": "", "error": str(exc)}
+
+
+def check_device(device: str) -> None:
+    """Fail at once, like the command line, when the device cannot be used."""
+    seamfit_module("device").resolve_device(device)
+    if device == "cuda":
+        raise AddonError("Device CUDA: the simulation and grading run on the CPU in this version of "
+                         "seamfit; set Device to Auto or CPU")
 
 
 # ---------------------------------------------------------------------------
@@ -348,20 +322,20 @@ def fabric_defaults() -> dict:
                 "bending_stiffness": 1.0e-5, "density": 0.2}
 
 
-def _simulator(mesh, sdf, sim_cfg: dict, device: str):
+def _sim_objects(sim_cfg: dict, device: str):
+    """seamfit's Fabric and SimSettings for the scene's simulation settings."""
     sim = seamfit_module("sim")
-    from dataclasses import fields
+    check_device(device)
     fabric = sim.Fabric(**{k: float(v) for k, v in sim_cfg.get("fabric", {}).items()})
     opts = {"mu": float(sim_cfg.get("mu", 0.01))}
     if sim_cfg.get("iterations"):
         opts["max_iterations"] = int(sim_cfg["iterations"])
-    names = {f.name for f in fields(sim.SimSettings)}
-    if "device" in names:
-        opts["device"] = device
-    elif device == "cuda":
-        raise AddonError("this seamfit simulates on the CPU only; set Device to Auto or CPU")
-    settings = sim.SimSettings(**opts)
-    return sim.Simulator(mesh, sdf, fabric, settings), settings
+    return fabric, sim.SimSettings(**opts)
+
+
+def _simulator(mesh, sdf, sim_cfg: dict, device: str):
+    fabric, settings = _sim_objects(sim_cfg, device)
+    return seamfit_module("sim").Simulator(mesh, sdf, fabric, settings), settings
 
 
 def base_drape(inp: RunInputs, job, span=(0.1, 0.9)):
@@ -399,3 +373,127 @@ def _fit_or_none(body: BodyInput, g: Garment) -> dict:
         return fit_ease(body, g)
     except user_errors():   # a body seamfit cannot measure: no fit lines, the result stands
         return {}
+
+
+@dataclass
+class GradeOutput:
+    pattern_json: str           # the adjusted pattern (sewpat-1)
+    base_pattern_json: str
+    garment: Garment            # sewn from the adjusted pattern, draped on the target body
+    objective: float
+    iterations: int
+    converged: bool
+    message: str
+    fit: dict
+    report: dict
+    result: Any                 # seamfit's GradeResult, for writing the command line's files
+    base_name: str
+    target_name: str
+    target_body: Any = None     # seamfit's Body of the target
+
+
+# Where each stage of seamfit.opt.grade sits on the progress bar.
+_GRADE_STAGES = {"mesh": 0.01, "sdf": 0.03, "base drape": 0.08, "transfer": 0.25,
+                 "base pattern on target": 0.27, "initialize": 0.32, "initial drape": 0.35,
+                 "checkpoint": None, "optimize": 0.4}
+
+
+def _grade_progress(job, max_outer: int):
+    def progress(info: dict) -> bool:
+        stage = info.get("stage", "")
+        if stage == "optimize" and info.get("iteration") is not None:
+            frac = 0.4 + 0.6 * min(1.0, info["iteration"] / max(1, max_outer))
+            job.update(stage="optimizing", fraction=frac, objective=info.get("objective"),
+                       iteration=info.get("iteration"))
+        elif "residual" in info:
+            job.update(stage=stage)
+        else:
+            job.update(stage=stage, fraction=_GRADE_STAGES.get(stage))
+        return not job.cancelled
+    return progress
+
+
+def run_grade(inp: RunInputs, job) -> GradeOutput:
+    """seamfit.opt.grade on the captured inputs, cached by their content: the same inputs
+    give the previous result at once. Within a run seamfit reuses its own caches of body
+    distance fields and base drapes, so changing strengths or the target skips those."""
+    opt = seamfit_module("opt.grade")
+    check_device(inp.device)
+    key = digest(inp.pattern_json, round(inp.edge_length_cm, 6), inp.base.key, inp.target.key,
+                 inp.strengths, inp.opt, inp.sim)
+    from seamfit.errors import SolveError
+
+    def make():
+        pattern = pattern_from_json(inp.pattern_json)
+        fabric, sim_settings = _sim_objects(inp.sim, inp.device)
+        settings = opt.GradeSettings(
+            strengths=dict(inp.strengths), edge_length_cm=float(inp.edge_length_cm),
+            sdf_spacing=float(inp.sim.get("sdf_spacing_m", 0.0025)),
+            inner_iterations=int(inp.opt["S"]), checkpoint_every=int(inp.opt["M"]),
+            max_outer_iterations=int(inp.opt["iterations"]))
+        try:
+            res = opt.grade(pattern, body_object(inp.base), body_object(inp.target), settings,
+                            fabric=fabric, sim_settings=sim_settings,
+                            progress=_grade_progress(job, settings.max_outer_iterations))
+        except SolveError:
+            job.check()         # cancelled: nothing is cached
+            raise
+        job.check()
+        return res
+    res = CACHE.get("grade", key, make)
+    job.update(stage="done", fraction=1.0)
+    import copy
+    graded = copy.deepcopy(res.pattern)     # the cached result stays as seamfit made it
+    graded.body_id = inp.target.name
+    g = garment(res.mesh, res.x)
+    g.uv_cm = np.asarray(res.uv_cm)
+    g.stretch = stretch_ratio_per_vertex(res.uv_cm, res.x, res.mesh.triangles)
+    r = res.report
+    ease = (r.get("ease_cm") or {}).get("result") or {}
+    return GradeOutput(
+        pattern_json=pattern_to_json(graded), base_pattern_json=inp.pattern_json, garment=g,
+        objective=float(r["objective_final"]), iterations=int(r["outer_iterations"]),
+        converged=bool(r["converged"]), message=str(r["message"]),
+        fit={k: float(v) for k, v in ease.items() if v is not None}, report=r, result=res,
+        base_name=inp.base.name, target_name=inp.target.name, target_body=body_object(inp.target))
+
+
+def write_grade_files(out, g: GradeOutput, picture: bool = True) -> list:
+    """The files `seamfit grade` writes (pattern.json, pattern.svg, garment.obj, drape.png,
+    report.json), from a grading run of the add-on, with the same seamfit writers."""
+    import copy
+    import json as _json
+    from pathlib import Path
+    from seamfit.fileio import atomic_write_text
+    from seamfit.mesh import write_obj
+    from seamfit.pattern import save_pattern, write_svg
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    res = g.result
+    base = pattern_from_json(g.base_pattern_json, source="base pattern")
+    graded = pattern_from_json(g.pattern_json, source="graded pattern")
+    save_pattern(graded, out / "pattern.json", overwrite=True)
+    write_svg(out / "pattern.svg", [base, graded], labels=[f"base ({g.base_name})", f"graded ({g.target_name})"])
+    mesh = copy.copy(res.mesh)
+    mesh.uv_cm = res.uv_cm
+    write_obj(out / "garment.obj", mesh, positions=res.x)
+    written = [out / "pattern.json", out / "pattern.svg", out / "garment.obj"]
+    if picture and importlib.util.find_spec("matplotlib") is not None:
+        # seamfit draws it with matplotlib, which Blender does not ship: only where it is installed.
+        from seamfit.sim.render import render_drape
+        tb = g.target_body
+        render_drape(out / "drape.png", res.x, res.mesh.triangles, res.mesh.triangle_panel,
+                     body_vertices=None if tb is None else tb.vertices,
+                     body_faces=None if tb is None else tb.faces,
+                     title=f"{base.garment_id or 'pattern'} graded to {g.target_name}")
+        written.append(out / "drape.png")
+
+    def jsonable(o):
+        if isinstance(o, np.generic):
+            return o.item()
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+        return str(o)
+    atomic_write_text(out / "report.json", _json.dumps(g.report, indent=1, default=jsonable) + "\n")
+    written.append(out / "report.json")
+    return written

@@ -19,6 +19,15 @@ from . import compute, jobs, props, scene_io
 from .operators import capture_body
 
 
+_last: dict = {}
+
+
+def last_result(kind: str = "adjust"):
+    """The outcome of the last finished drape or adjust of this session (batch scripts
+    write seamfit's files from it)."""
+    return _last.get(kind)
+
+
 @dataclass
 class Task:
     label: str
@@ -67,6 +76,7 @@ def drape_task(context) -> Task:
     def apply(ctx, out) -> str:
         coll = scene_io.build_drape(ctx, out, f"{inputs.pattern_name} on {inputs.base.name}",
                                     body=inputs.base.name)
+        _last["drape"] = out
         state = "converged" if out.converged else f"not converged ({out.message})"
         return f"Draped {inputs.pattern_name} on {inputs.base.name}: {state}; result in {coll.name!r}"
     return Task(f"drape {inputs.pattern_name}", lambda job: compute.run_drape(inputs, job), apply)
@@ -79,8 +89,10 @@ def adjust_task(context) -> Task:
     def apply(ctx, out) -> str:
         coll = scene_io.build_graded(ctx, out, f"{inputs.target.name} {inputs.pattern_name}",
                                      base_collection=base_coll_name, body=inputs.target.name)
-        return (f"Graded {inputs.pattern_name} to {inputs.target.name} in {out.iterations} iterations; "
-                f"result in {coll.name!r}")
+        _last["adjust"] = out
+        state = "converged" if out.converged else f"stopped: {out.message}"
+        return (f"Graded {inputs.pattern_name} to {inputs.target.name} in {out.iterations} iterations "
+                f"({state}, objective {out.objective:.4g}); result in {coll.name!r}")
     return Task(f"grade {inputs.pattern_name} to {inputs.target.name}",
                 lambda job: compute.run_grade(inputs, job), apply)
 

@@ -110,14 +110,23 @@ class SEAMFIT_PT_simulation(_SeamfitPanel, bpy.types.Panel):
         for name in ("mu", "sdf_spacing_mm", "sim_iterations", "steps_per_iteration", "exact_every", "iterations"):
             col.prop(s, name)
         self.layout.prop(s, "device")
-        dev = compute.device_status()
+        dev = _device()
         if dev["error"]:
             self.layout.label(text=dev["error"], icon="ERROR")
-        elif dev["cuda_devices"]:
-            self.layout.label(text=f"GPU: {dev['cuda_name']}", icon="CHECKMARK")
+        elif dev["cuda"]:
+            self.layout.label(text=f"GPU: {dev['name']}", icon="CHECKMARK")
         else:
-            self.layout.label(text="No CUDA GPU: runs on the CPU" if dev["cuda_built"]
-                              else "This build of seamfit is CPU only", icon="INFO")
+            self.layout.label(text=f"CPU: {dev['why']}", icon="INFO")
+
+
+_device_cache: dict = {}
+
+
+def _device() -> dict:
+    # Asked once per session: the panel redraws often and the answer does not change.
+    if not _device_cache:
+        _device_cache.update(compute.device_status())
+    return _device_cache
 
 
 class SEAMFIT_PT_cache(_SeamfitPanel, bpy.types.Panel):

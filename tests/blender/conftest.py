@@ -28,6 +28,8 @@ else:
     # Before bpy is imported: keep Blender's user folders (preferences, extensions) out of ~.
     USER_RESOURCES = Path(tempfile.mkdtemp(prefix="seamfit-blender-user-"))
     os.environ["BLENDER_USER_RESOURCES"] = str(USER_RESOURCES)
+    # seamfit's own disk caches (distance fields, base drapes) start empty for every run.
+    os.environ["SEAMFIT_CACHE_DIR"] = str(USER_RESOURCES / "seamfit-cache")
 
     class _OnlyFromExtension(importlib.abc.MetaPathFinder):
         """Make seamfit, scipy and gmsh importable only from the extension's own wheels, as

@@ -458,7 +458,7 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
         base_name=inp.base.name, target_name=inp.target.name, target_body=body_object(inp.target))
 
 
-def write_grade_files(out, g: GradeOutput, picture: bool = True) -> list:
+def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | None = None) -> list:
     """The files `seamfit grade` writes (pattern.json, pattern.svg, garment.obj, drape.png,
     report.json), from a grading run of the add-on, with the same seamfit writers."""
     import copy
@@ -494,6 +494,9 @@ def write_grade_files(out, g: GradeOutput, picture: bool = True) -> list:
         if isinstance(o, np.ndarray):
             return o.tolist()
         return str(o)
-    atomic_write_text(out / "report.json", _json.dumps(g.report, indent=1, default=jsonable) + "\n")
+    report = dict(g.report)
+    if inputs is not None:
+        report["inputs"] = dict(inputs)
+    atomic_write_text(out / "report.json", _json.dumps(report, indent=1, default=jsonable) + "\n")
     written.append(out / "report.json")
     return written

@@ -10,8 +10,6 @@ collecting it, since its own Python has no bpy). To run it by hand:
 """
 from __future__ import annotations
 
-import importlib.abc
-import importlib.machinery
 import os
 import sys
 import tempfile
@@ -31,23 +29,10 @@ else:
     # seamfit's own disk caches (distance fields, base drapes) start empty for every run.
     os.environ["SEAMFIT_CACHE_DIR"] = str(USER_RESOURCES / "seamfit-cache")
 
-    class _OnlyFromExtension(importlib.abc.MetaPathFinder):
-        """Make seamfit, scipy and gmsh importable only from the extension's own wheels, as
-        in a Blender that never had them, even if this Python's site-packages has them."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    import isolation  # noqa: E402
 
-        NAMES = {"seamfit", "scipy", "gmsh"}
-
-        def find_spec(self, name, path, target=None):
-            if path is not None or name not in self.NAMES:
-                return None
-            allowed = [p for p in sys.path if str(USER_RESOURCES) in os.path.realpath(p or ".")]
-            spec = importlib.machinery.PathFinder.find_spec(name, allowed)
-            if spec is None:
-                raise ModuleNotFoundError(f"{name} is not installed by the seamfit extension", name=name)
-            return spec
-
-    if os.environ.get("SEAMFIT_BPY_ISOLATE", "1") == "1":
-        sys.meta_path.insert(0, _OnlyFromExtension())
+    isolation.install(str(USER_RESOURCES))
 
     import bpy  # noqa: E402
 
@@ -83,3 +68,20 @@ else:
     @pytest.fixture()
     def tmp_out(tmp_path) -> Path:
         return tmp_path
+
+    @pytest.fixture(scope="session")
+    def cli_grade(tmp_path_factory, installed):
+        """`seamfit grade` on the sample skirt (the settings of helpers.GRADE_ARGS), run by the
+        seamfit the extension installed; (pattern, report, output folder)."""
+        import json
+        import subprocess
+        from helpers import BODY_BASE, BODY_TARGET, GRADE_ARGS, PENCIL, extension_site_packages
+        from seamfit.pattern import load_pattern
+        out = tmp_path_factory.mktemp("cli-grade")
+        env = {"PYTHONPATH": str(extension_site_packages()), "PATH": "/usr/bin:/bin",
+               "SEAMFIT_CACHE_DIR": os.environ["SEAMFIT_CACHE_DIR"]}
+        proc = subprocess.run([sys.executable, "-m", "seamfit", "grade", str(PENCIL), "--base-body", str(BODY_BASE),
+                               "--target-body", str(BODY_TARGET), "--out", str(out), "--no-picture", "-q",
+                               *GRADE_ARGS], env=env, capture_output=True, text=True)
+        assert proc.returncode in (0, 1), proc.stderr
+        return load_pattern(out / "pattern.json"), json.loads((out / "report.json").read_text()), out

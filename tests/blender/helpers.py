@@ -17,6 +17,11 @@ BODY_BASE = SAMPLES / "bodies" / "women_size06.obj"
 BODY_TARGET = SAMPLES / "bodies" / "women_size10.obj"
 MODULE = "bl_ext.user_default.seamfit"
 
+# A coarse, short grading (seconds), the same for the add-on, the command line and the batch script.
+GRADE_EDGE_CM, GRADE_SDF_M, GRADE_OUTER, GRADE_EVERY = 4.0, 0.005, 8, 4
+GRADE_ARGS = ["--edge-length", str(GRADE_EDGE_CM), "--sdf-spacing", str(GRADE_SDF_M),
+              "--max-iterations", str(GRADE_OUTER), "--checkpoint-every", str(GRADE_EVERY)]
+
 
 def addon():
     """The enabled extension's package (its modules: compute, scene_io, jobs, ...)."""

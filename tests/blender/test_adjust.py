@@ -1,43 +1,14 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Adjust: the whole grading through the operator, compared with `seamfit grade` on the
 same inputs; cache reuse, undo, cancel, export of the result."""
-import json
-import os
-import subprocess
-import sys
 import time
 
 import bpy
 import numpy as np
 import pytest
 
-from helpers import (BODY_BASE, BODY_TARGET, PENCIL, addon, extension_site_packages, import_obj,
-                     object_fingerprint, scene_fingerprint, undo, undo_push)
-
-# Coarse and short, so a grading takes seconds; the same numbers go to the command line.
-EDGE_CM, SDF_M, OUTER, EVERY = 4.0, 0.005, 8, 4
-CLI_ARGS = ["--edge-length", str(EDGE_CM), "--sdf-spacing", str(SDF_M), "--max-iterations", str(OUTER),
-            "--checkpoint-every", str(EVERY)]
-
-
-def run_cli_grade(out):
-    """`seamfit grade`, run by the seamfit the extension installed (sharing seamfit's disk
-    cache with this session, as two runs on one machine do)."""
-    env = {"PYTHONPATH": str(extension_site_packages()), "PATH": "/usr/bin:/bin",
-           "SEAMFIT_CACHE_DIR": os.environ["SEAMFIT_CACHE_DIR"]}
-    proc = subprocess.run([sys.executable, "-m", "seamfit", "grade", str(PENCIL), "--base-body", str(BODY_BASE),
-                           "--target-body", str(BODY_TARGET), "--out", str(out), "--no-picture", "-q", *CLI_ARGS],
-                          env=env, capture_output=True, text=True)
-    assert proc.returncode in (0, 1), proc.stderr
-    return out
-
-
-@pytest.fixture(scope="module")
-def cli_grade(tmp_path_factory):
-    from seamfit.pattern import load_pattern
-    out = run_cli_grade(tmp_path_factory.mktemp("cli-grade"))
-    return load_pattern(out / "pattern.json"), json.loads((out / "report.json").read_text())
-
+from helpers import (BODY_BASE, BODY_TARGET, GRADE_EDGE_CM, GRADE_EVERY, GRADE_OUTER, GRADE_SDF_M, PENCIL,
+                     addon, import_obj, object_fingerprint, scene_fingerprint, undo, undo_push)
 
 @pytest.fixture()
 def setup(scene):
@@ -45,10 +16,10 @@ def setup(scene):
     s = scene.seamfit
     s.base_body = import_obj(BODY_BASE, "women_size06")
     s.target_body = import_obj(BODY_TARGET, "women_size10")
-    s.edge_length_cm = EDGE_CM
-    s.sdf_spacing_mm = 1000 * SDF_M
-    s.iterations = OUTER
-    s.exact_every = EVERY
+    s.edge_length_cm = GRADE_EDGE_CM
+    s.sdf_spacing_mm = 1000 * GRADE_SDF_M
+    s.iterations = GRADE_OUTER
+    s.exact_every = GRADE_EVERY
     return s
 
 
@@ -65,7 +36,7 @@ def _assert_same_pattern(a, b, tol_cm):
 
 def test_adjust_matches_the_command_line(setup, cli_grade):
     from seamfit.pattern import load_pattern
-    cli_pattern, cli_report = cli_grade
+    cli_pattern, cli_report, _ = cli_grade
     base = setup.pattern
     base_before = sorted(object_fingerprint(o) for o in base.objects)
     bodies_before = [object_fingerprint(o) for o in (setup.base_body, setup.target_body)]

@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Drape: the base garment on the base body, through the operator, the worker thread and
 the cache; compared with `seamfit drape` on the same inputs."""
+import os
 import subprocess
 import sys
 import time
@@ -12,7 +13,7 @@ import pytest
 from helpers import (BODY_BASE, PENCIL, addon, extension_site_packages, import_obj,
                      object_fingerprint, scene_fingerprint, undo, undo_push)
 
-EDGE_CM = 4.0     # coarse, so a drape takes seconds
+EDGE_CM, SDF_M = 4.0, 0.005     # coarse, so a drape takes seconds
 
 
 @pytest.fixture()
@@ -21,6 +22,7 @@ def setup(scene):
     s = scene.seamfit
     s.base_body = import_obj(BODY_BASE, "women_size06")
     s.edge_length_cm = EDGE_CM
+    s.sdf_spacing_mm = 1000 * SDF_M
     return s
 
 
@@ -40,9 +42,9 @@ def cli_drape(tmp_path_factory):
     """`seamfit drape` run by the seamfit the extension installed."""
     out = tmp_path_factory.mktemp("cli-drape")
     env = {"PYTHONPATH": str(extension_site_packages()), "PATH": "/usr/bin:/bin",
-           "SEAMFIT_CACHE_DIR": str(out / "cache")}
+           "SEAMFIT_CACHE_DIR": os.environ["SEAMFIT_CACHE_DIR"]}
     proc = subprocess.run([sys.executable, "-m", "seamfit", "drape", str(PENCIL), str(BODY_BASE), "--out", str(out),
-                           "--edge-length", str(EDGE_CM), "--no-picture", "-q"], env=env,
+                           "--edge-length", str(EDGE_CM), "--sdf-spacing", str(SDF_M), "--no-picture", "-q"], env=env,
                           capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     from seamfit.mesh import read_obj_positions

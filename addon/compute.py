@@ -186,6 +186,13 @@ def fit_ease(body: BodyInput, g: "Garment") -> dict:
     return {k: float(v) for k, v in report.items() if v is not None}
 
 
+def body_sdf(body: BodyInput, settings: dict | None = None):
+    """seamfit's signed distance field of the body (cached here, and by seamfit on disk)."""
+    settings = dict(settings or {})
+    key = digest(body.key, settings)
+    return CACHE.get("sdf", key, lambda: seamfit_module("body").build_sdf(body_object(body), **settings))
+
+
 # ---------------------------------------------------------------------------
 # Sewn mesh
 

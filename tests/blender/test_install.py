@@ -1,6 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The built zip installs like any extension and brings its own seamfit."""
-import sys
 from pathlib import Path
 
 import bpy

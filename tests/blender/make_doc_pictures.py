@@ -36,7 +36,7 @@ def _setup_scene():
     cam = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
     scene.collection.objects.link(cam)
     scene.camera = cam
-    cam.location = (2.2, -2.2, 1.2)
+    cam.location = (1.9, -1.9, 1.25)
     cam.rotation_euler = (Vector((0.0, 0.0, 0.85)) - cam.location).to_track_quat("-Z", "Y").to_euler()
     sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
     sun.data.energy = 3.0
@@ -84,9 +84,11 @@ def _render(scene, name):
 
 def main():
     scene, body = _setup_scene()
+    body.data.materials.append(_flat_material((0.35, 0.37, 0.42, 1.0)))    # the garment shows against it
     bpy.ops.seamfit.import_pattern(filepath=str(PATTERN))
     coll = scene.seamfit.pattern
     mat = _object_colour_material()
+    tubes = None
     for obj in coll.objects:
         if obj.type == "CURVE":
             obj.data.materials.append(mat)
@@ -98,11 +100,16 @@ def main():
             bpy.ops.object.convert(target="CURVE")
             tube.data.bevel_depth = 0.002
             tube.data.materials.append(_flat_material((0.8, 0.1, 0.1, 1.0)))
+            tubes = tube
     _render(scene, "blender_pattern.png")
     if "--drape" in sys.argv:
         coll.hide_render = True
+        tubes.hide_render = True
         scene.seamfit.edge_length_cm = 2.0
         bpy.ops.seamfit.drape()
+        # Display only: a 2 cm mesh lying 1 mm off the body dips into it between its vertices.
+        for obj in bpy.data.collections[f"{coll.name} on {body.name}"].objects:
+            obj.modifiers.new("offset", "DISPLACE").strength = 0.004
         _render(scene, "blender_drape.png")
 
 

@@ -141,7 +141,7 @@ class SEAMFIT_OT_check_bodies(bpy.types.Operator):
     """Check the base and target bodies and measure their height and girths"""
     bl_idname = "seamfit.check_bodies"
     bl_label = "Check Bodies"
-    bl_options = {"REGISTER"}
+    bl_options = {"REGISTER", "UNDO"}     # the reports are stored in the scene
 
     def execute(self, context):
         s = context.scene.seamfit

@@ -3,8 +3,8 @@
 that has the bpy module: Blender can be imported once per process and each Blender
 version has its own bpy, so every suite runs in a subprocess.
 
-SEAMFIT_BPY_PYTHONS: os.pathsep-separated interpreters with bpy installed
-(default: .venv-blender/bin/python, made by scripts/setup.sh).
+SEAMFIT_BPY_PYTHONS: os.pathsep-separated interpreters with bpy installed (default: every
+.venv-blender*/bin/python of the repository, made by scripts/setup.sh).
 SEAMFIT_ADDON_ZIP: an already built extension zip (default: built here into build/).
 """
 from __future__ import annotations
@@ -23,7 +23,8 @@ def _bpy_pythons() -> list[str]:
     given = os.environ.get("SEAMFIT_BPY_PYTHONS")
     if given:
         return [p for p in given.split(os.pathsep) if p]
-    return [str(REPO / ".venv-blender" / "bin" / "python")]
+    found = sorted(str(p) for p in REPO.glob(".venv-blender*/bin/python"))
+    return found or [str(REPO / ".venv-blender" / "bin" / "python")]
 
 
 @pytest.fixture(scope="module")

@@ -53,3 +53,12 @@ def test_user_scene_props_defaults(scene):
     assert s.strength_preset == "dress"
     assert (s.strength_fix, s.strength_cur, s.strength_dis, s.strength_smo, s.strength_str,
             s.strength_pos) == pytest.approx((100.0, 1e6, 1.0, 0.05, 1.0, 100.0), rel=1e-6)
+
+
+def test_operators_that_change_the_scene_are_undoable(installed):
+    for cls in ("SEAMFIT_OT_import_pattern", "SEAMFIT_OT_build_mesh", "SEAMFIT_OT_drape", "SEAMFIT_OT_adjust",
+                "SEAMFIT_OT_check_bodies"):
+        assert "UNDO" in getattr(bpy.types, cls).bl_options, cls
+    # Export writes files only; drape and adjust have no redo panel (it would recompute).
+    assert "UNDO" not in bpy.types.SEAMFIT_OT_export_pattern.bl_options
+    assert "REGISTER" not in bpy.types.SEAMFIT_OT_adjust.bl_options

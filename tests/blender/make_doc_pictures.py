@@ -4,8 +4,8 @@ or GPU needed). Not a test; run by hand:
 
     SEAMFIT_ADDON_ZIP=dist/seamfit-0.1.0.zip .venv-blender/bin/python tests/blender/make_doc_pictures.py
 
-Writes docs/images/blender_pattern.png (an imported pattern around its body) and, with
---drape, docs/images/blender_drape.png (the draped garment coloured by stretch ratio).
+Writes docs/img/blender_pattern.png (an imported pattern around its body) and, with
+--drape, docs/img/blender_drape.png (the draped garment coloured by stretch ratio).
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ import bpy  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
-OUT = REPO / "docs" / "images"
+OUT = REPO / "docs" / "img"
 PATTERN = REPO / "sample_files" / "patterns" / "gc_pencil_skirt" / "size06" / "pattern.json"
 BODY = REPO / "sample_files" / "bodies" / "women_size06.obj"
 

@@ -407,6 +407,14 @@ _GRADE_STAGES = {"mesh": 0.01, "sdf": 0.03, "base drape": 0.08, "transfer": 0.25
 
 def _grade_progress(job, max_outer: int):
     def progress(info: dict) -> bool:
+        # Called from inside seamfit's solvers (some in C++): answer False to stop, never raise.
+        try:
+            report(info)
+        except Cancelled:
+            return False
+        return not job.cancelled
+
+    def report(info: dict) -> None:
         stage = info.get("stage", "")
         if stage == "optimize" and info.get("iteration") is not None:
             frac = 0.4 + 0.6 * min(1.0, info["iteration"] / max(1, max_outer))
@@ -416,7 +424,6 @@ def _grade_progress(job, max_outer: int):
             job.update(stage=stage)
         else:
             job.update(stage=stage, fraction=_GRADE_STAGES.get(stage))
-        return not job.cancelled
     return progress
 
 

@@ -1,0 +1,20 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""seamfit for Blender: import sewing patterns, drape them on bodies and grade them to new
+bodies. Blender glue only; every computation is done by the ``seamfit`` package, which the
+extension bundles as a wheel."""
+
+from . import operators, overlay, props, solve, ui
+from .cache import CACHE
+
+_MODULES = (props, operators, solve, ui, overlay)
+
+
+def register():
+    for mod in _MODULES:
+        mod.register()
+
+
+def unregister():
+    for mod in reversed(_MODULES):
+        mod.unregister()
+    CACHE.clear()

@@ -1,0 +1,516 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The add-on's only door to seamfit. No bpy here: these functions run in worker threads
+on plain data captured from the scene on the main thread.
+"""
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import json
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .cache import CACHE, digest
+from .jobs import Cancelled
+
+
+class AddonError(Exception):
+    """A problem the user can fix, shown as is (like seamfit's own errors)."""
+
+
+def seamfit_module(name: str = ""):
+    """Import ``seamfit`` or one of its public modules with a readable failure."""
+    full = "seamfit" + (f".{name}" if name else "")
+    try:
+        return importlib.import_module(full)
+    except ImportError as exc:
+        raise AddonError(f"{full} is not available in the installed seamfit ({exc}); "
+                         "reinstall the seamfit extension") from exc
+
+
+def user_errors() -> tuple[type[BaseException], ...]:
+    """Exceptions whose message is meant for the user."""
+    try:
+        from seamfit.errors import SeamfitError
+        return (SeamfitError, AddonError)
+    except ImportError:
+        return (AddonError,)
+
+
+def seamfit_version() -> str:
+    try:
+        import seamfit
+        return str(seamfit.__version__)
+    except ImportError as exc:
+        return f"not available ({exc})"
+
+
+# ---------------------------------------------------------------------------
+# Patterns
+
+def load_pattern(path: str):
+    """sewpat-1 or a GarmentCode specification, detected from the content."""
+    return seamfit_module("pattern").load_pattern(path)
+
+
+def check_pattern(pattern) -> list[str]:
+    """Refuse a broken pattern (seamfit's PatternError lists every error); return the warnings."""
+    return [str(w) for w in seamfit_module("pattern").check_pattern(pattern).warnings]
+
+
+def pattern_to_json(pattern) -> str:
+    sewpat = seamfit_module("pattern.sewpat")
+    return json.dumps(sewpat.pattern_to_dict(pattern), sort_keys=True)
+
+
+def pattern_from_json(text: str, source: str = "<blend>"):
+    sewpat = seamfit_module("pattern.sewpat")
+    return sewpat.pattern_from_dict(json.loads(text), source)
+
+
+def save_pattern(pattern, path: str) -> None:
+    """sewpat-1, written atomically; seamfit refuses to write over the pattern's own source file."""
+    seamfit_module("pattern").save_pattern(pattern, path)
+
+
+def save_svg(patterns: list, path: str, labels: list[str] | None = None) -> None:
+    """True-scale drawing; several patterns are overlaid, the first being the base."""
+    seamfit_module("pattern").write_svg(path, patterns, labels=labels)
+
+
+def side_points_cm(pattern, side) -> np.ndarray:
+    from seamfit.pattern import range_indices
+    panel = pattern.panel(side.panel)
+    return panel.outline_cm[range_indices(side.range, panel.n_vertices)]
+
+
+def stitch_lengths_cm(pattern, stitch) -> tuple[float, float]:
+    """Lengths of both sides, as the file gives them or measured along the outline."""
+    from seamfit.pattern.model import polyline_length
+    la = stitch.length_a_cm
+    lb = stitch.length_b_cm
+    if la is None:
+        la = polyline_length(side_points_cm(pattern, stitch.a))
+    if lb is None:
+        lb = polyline_length(side_points_cm(pattern, stitch.b))
+    return float(la), float(lb)
+
+
+def stitch_pairs_world(pattern, stitch, spacing_m: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+    """Matching points along both sides of a stitch, in world metres, for display:
+    both sides sampled at the same fractions of their length (side b runs backwards
+    for a 'reversed' stitch)."""
+    pa, pb = pattern.panel(stitch.a.panel), pattern.panel(stitch.b.panel)
+    a = pa.placement.to_world(side_points_cm(pattern, stitch.a))
+    b = pb.placement.to_world(side_points_cm(pattern, stitch.b))
+    if stitch.orientation == "reversed":
+        b = b[::-1]
+    length = max(_polylen(a), _polylen(b))
+    count = max(2, int(np.ceil(length / spacing_m)) + 1)
+    t = np.linspace(0.0, 1.0, count)
+    return _resample(a, t), _resample(b, t)
+
+
+def _polylen(p: np.ndarray) -> float:
+    return float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1))) if len(p) > 1 else 0.0
+
+
+def _resample(p: np.ndarray, t: np.ndarray) -> np.ndarray:
+    seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    if s[-1] <= 0:
+        return np.repeat(p[:1], len(t), axis=0)
+    s /= s[-1]
+    return np.stack([np.interp(t, s, p[:, k]) for k in range(p.shape[1])], axis=1)
+
+
+# ---------------------------------------------------------------------------
+# Bodies
+
+@dataclass
+class BodyInput:
+    """A body mesh captured from the scene: world coordinates in metres, triangles."""
+    name: str
+    vertices: np.ndarray
+    triangles: np.ndarray
+    key: str = ""
+
+    def __post_init__(self):
+        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
+        self.triangles = np.ascontiguousarray(self.triangles, dtype=np.int64)
+        if not self.key:
+            self.key = digest(self.vertices, self.triangles)
+
+
+def body_object(body: BodyInput):
+    """seamfit's Body for the captured mesh (cached by content)."""
+    def make():
+        return seamfit_module("body").Body(body.vertices, body.triangles, name=body.name)
+    return CACHE.get("body", body.key, make)
+
+
+def body_measurements(body: BodyInput) -> dict:
+    key = "measure:" + body.key
+    return CACHE.get("body", key, lambda: seamfit_module("body").body_measurements(body_object(body)))
+
+
+def body_report(body: BodyInput) -> dict:
+    """Validation messages and key measurements (cm) of a body."""
+    b = seamfit_module("body")
+    from seamfit.errors import BodyError
+    try:
+        sb = body_object(body)
+        report = b.validate_body(sb)
+    except BodyError as exc:        # a body that loads but fails its checks, or does not load
+        return {"errors": [str(exc)], "warnings": [], "measurements": {}}
+    errors = [str(e) for e in (getattr(report, "errors", None) or [])]
+    warnings = [str(w) for w in (getattr(report, "warnings", None) or [])]
+    measurements = {}
+    if not errors:
+        try:
+            m = body_measurements(body)
+        except BodyError as exc:    # valid mesh but not measurable as a body
+            return {"errors": [str(exc)], "warnings": warnings, "measurements": {}}
+        measurements = {k: float(m[k]) for k in ("height", "bust", "waist", "hip") if k in m}
+    return {"errors": errors, "warnings": warnings, "measurements": measurements}
+
+
+def fit_ease(body: BodyInput, g: "Garment") -> dict:
+    """Ease in cm (garment tape girth minus body girth) at the body's bust, waist and hip
+    levels, by seamfit's fit measure; a level the garment does not cover is left out."""
+    fit = seamfit_module("opt.fit")
+    levels = body_measurements(body).get("levels_z_m")
+    report = fit.ease_report(body_object(body), g.x, g.triangles, levels)
+    return {k: float(v) for k, v in report.items() if v is not None}
+
+
+def body_sdf(body: BodyInput, settings: dict | None = None):
+    """seamfit's signed distance field of the body (cached here, and by seamfit on disk)."""
+    settings = dict(settings or {})
+    key = digest(body.key, settings)
+    return CACHE.get("sdf", key, lambda: seamfit_module("body").build_sdf(body_object(body), **settings))
+
+
+# ---------------------------------------------------------------------------
+# Sewn mesh
+
+def sewn_mesh(pattern_json: str, edge_length_cm: float):
+    key = digest(pattern_json, round(float(edge_length_cm), 6))
+
+    def make():
+        m = seamfit_module("mesh")
+        return m.build_sewn_mesh(pattern_from_json(pattern_json), edge_length_cm=float(edge_length_cm))
+    return CACHE.get("mesh", key, make), key
+
+
+# ---------------------------------------------------------------------------
+# Device
+
+def device_status() -> dict:
+    """Whether the installed seamfit can use a CUDA GPU here, and why not."""
+    try:
+        ok, why = seamfit_module("device").cuda_available()
+        name = ""
+        if ok:
+            from seamfit import _native
+            name = str(_native.core().cuda_device_name(0))
+        return {"cuda": bool(ok), "why": why, "name": name, "error": ""}
+    except Exception as exc:   # a broken install is shown in the panel, not raised while drawing
+        return {"cuda": False, "why": "", "name": "", "error": str(exc)}
+
+
+def check_device(device: str) -> None:
+    """Fail at once, like the command line, when the device cannot be used."""
+    seamfit_module("device").resolve_device(device)
+    if device == "cuda":
+        raise AddonError("Device CUDA: the simulation and grading run on the CPU in this version of "
+                         "seamfit; set Device to Auto or CPU")
+
+
+# ---------------------------------------------------------------------------
+# Drape and grade (filled in as seamfit.sim and seamfit.opt provide them)
+
+@dataclass
+class Garment:
+    """A garment mesh ready for the scene: pattern (uv_cm), positions x (m), triangles,
+    sewing pairs, panel of each triangle, stretch ratio per vertex."""
+    panel_names: list
+    uv_cm: np.ndarray
+    x: np.ndarray
+    triangles: np.ndarray
+    triangle_panel: np.ndarray
+    sewing_pairs: np.ndarray
+    pair_stitch: np.ndarray | None = None
+    stretch: np.ndarray | None = None
+
+
+def garment(mesh, x: np.ndarray | None = None) -> Garment:
+    """``mesh`` (a seamfit SewnMesh) at positions ``x`` (default: its flat start positions)."""
+    x = np.asarray(mesh.x0 if x is None else x, dtype=np.float64)
+    return Garment(panel_names=list(mesh.panel_names), uv_cm=np.asarray(mesh.uv_cm), x=x,
+                   triangles=np.asarray(mesh.triangles), triangle_panel=np.asarray(mesh.triangle_panel),
+                   sewing_pairs=np.asarray(mesh.sewing_pairs).reshape(-1, 2),
+                   pair_stitch=np.asarray(getattr(mesh, "pair_stitch", None))
+                   if getattr(mesh, "pair_stitch", None) is not None else None,
+                   stretch=stretch_ratio_per_vertex(mesh.uv_cm, x, mesh.triangles))
+
+
+@dataclass
+class MeshOutput:
+    pattern_json: str
+    garment: Garment
+    stats: dict
+
+
+def run_mesh(pattern_json: str, edge_length_cm: float, job) -> MeshOutput:
+    job.update(stage="meshing", fraction=0.1)
+    mesh, _ = sewn_mesh(pattern_json, edge_length_cm)
+    job.update(stage="meshed", fraction=1.0)
+    stats = mesh.stats() if hasattr(mesh, "stats") else {}
+    return MeshOutput(pattern_json, garment(mesh), stats)
+
+
+@dataclass
+class RunInputs:
+    pattern_name: str
+    pattern_json: str
+    edge_length_cm: float
+    base: BodyInput
+    sim: dict = field(default_factory=dict)
+    target: BodyInput | None = None
+    strengths: dict = field(default_factory=dict)
+    opt: dict = field(default_factory=dict)
+    device: str = "auto"
+
+
+def stretch_ratio_per_vertex(uv_cm: np.ndarray, x: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Mean over the incident edges of |x_i - x_j| / |p_i - p_j| (the stretching ratio of
+    Wang 2018, section 6, shown in its Fig. 8)."""
+    p = np.zeros((len(uv_cm), 3))
+    p[:, :2] = 0.01 * np.asarray(uv_cm)
+    tri = np.asarray(triangles)
+    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    e = np.unique(np.sort(e, axis=1), axis=0)
+    rest = np.linalg.norm(p[e[:, 0]] - p[e[:, 1]], axis=1)
+    cur = np.linalg.norm(x[e[:, 0]] - x[e[:, 1]], axis=1)
+    ratio = np.where(rest > 0, cur / np.maximum(rest, 1e-12), 1.0)
+    acc = np.zeros(len(x))
+    cnt = np.zeros(len(x))
+    np.add.at(acc, e[:, 0], ratio)
+    np.add.at(acc, e[:, 1], ratio)
+    np.add.at(cnt, e[:, 0], 1)
+    np.add.at(cnt, e[:, 1], 1)
+    return np.where(cnt > 0, acc / np.maximum(cnt, 1), 1.0)
+
+
+@dataclass
+class DrapeOutput:
+    pattern_json: str
+    garment: Garment
+    converged: bool
+    residual: float
+    iterations: int
+    seconds: float
+    message: str
+    fit: dict
+
+
+def fabric_defaults() -> dict:
+    """seamfit's default fabric (numbers shown in the Simulation panel)."""
+    try:
+        from seamfit.sim import Fabric
+        f = Fabric()
+        return {k: float(getattr(f, k)) for k in ("stretch_stiffness", "sewing_stiffness",
+                                                   "bending_stiffness", "density")}
+    except Exception:   # seamfit without the simulator: the values it documents
+        return {"stretch_stiffness": 1000.0, "sewing_stiffness": 8660.0,
+                "bending_stiffness": 1.0e-5, "density": 0.2}
+
+
+def _sim_objects(sim_cfg: dict, device: str):
+    """seamfit's Fabric and SimSettings for the scene's simulation settings."""
+    sim = seamfit_module("sim")
+    check_device(device)
+    fabric = sim.Fabric(**{k: float(v) for k, v in sim_cfg.get("fabric", {}).items()})
+    opts = {"mu": float(sim_cfg.get("mu", 0.01))}
+    if sim_cfg.get("iterations"):
+        opts["max_iterations"] = int(sim_cfg["iterations"])
+    return fabric, sim.SimSettings(**opts)
+
+
+def _simulator(mesh, sdf, sim_cfg: dict, device: str):
+    fabric, settings = _sim_objects(sim_cfg, device)
+    return seamfit_module("sim").Simulator(mesh, sdf, fabric, settings), settings
+
+
+def base_drape(inp: RunInputs, job, span=(0.1, 0.9)):
+    """The base garment draped on the base body (cached): (mesh, DrapeResult, mesh_key)."""
+    job.update(stage="meshing the pattern", fraction=0.01)
+    mesh, mesh_key = sewn_mesh(inp.pattern_json, inp.edge_length_cm)
+    job.update(stage="base body distance field", fraction=0.04)
+    sdf = body_sdf(inp.base, {"spacing": inp.sim.get("sdf_spacing_m", 0.0025)})
+    key = digest(mesh_key, inp.base.key, inp.sim, inp.device)
+
+    def make():
+        simulator, settings = _simulator(mesh, sdf, inp.sim, inp.device)
+        # Start as `seamfit drape` does: hint placements are wrapped around the body first.
+        x0, _ = seamfit_module("sim.dressing").initial_positions(
+            mesh, pattern_from_json(inp.pattern_json), sdf, mode="auto")
+        res = simulator.drape(x0, progress=job.callback("draping on the base body", span=span,
+                                                        target=float(settings.tolerance)))
+        job.check()     # a cancelled drape is never cached
+        if getattr(res, "cancelled", False):
+            raise Cancelled()
+        return res
+    return mesh, CACHE.get("drape", key, make), mesh_key
+
+
+def run_drape(inp: RunInputs, job) -> DrapeOutput:
+    mesh, res, _ = base_drape(inp, job)
+    job.update(stage="measuring the fit", fraction=0.95)
+    g = garment(mesh, res.x)
+    return DrapeOutput(inp.pattern_json, g, bool(res.converged), float(res.residual),
+                       int(res.iterations), float(res.seconds), str(res.message), _fit_or_none(inp.base, g))
+
+
+def _fit_or_none(body: BodyInput, g: Garment) -> dict:
+    try:
+        return fit_ease(body, g)
+    except user_errors():   # a body seamfit cannot measure: no fit lines, the result stands
+        return {}
+
+
+@dataclass
+class GradeOutput:
+    pattern_json: str           # the adjusted pattern (sewpat-1)
+    base_pattern_json: str
+    garment: Garment            # sewn from the adjusted pattern, draped on the target body
+    objective: float
+    iterations: int
+    converged: bool
+    message: str
+    fit: dict
+    report: dict
+    result: Any                 # seamfit's GradeResult, for writing the command line's files
+    base_name: str
+    target_name: str
+    target_body: Any = None     # seamfit's Body of the target
+
+
+# Where each stage of seamfit.opt.grade sits on the progress bar.
+_GRADE_STAGES = {"mesh": 0.01, "sdf": 0.03, "base drape": 0.08, "transfer": 0.25,
+                 "base pattern on target": 0.27, "initialize": 0.32, "initial drape": 0.35,
+                 "checkpoint": None, "optimize": 0.4}
+
+
+def _grade_progress(job, max_outer: int):
+    def progress(info: dict) -> bool:
+        # Called from inside seamfit's solvers (some in C++): answer False to stop, never raise.
+        try:
+            report(info)
+        except Cancelled:
+            return False
+        return not job.cancelled
+
+    def report(info: dict) -> None:
+        stage = info.get("stage", "")
+        if stage == "optimize" and info.get("iteration") is not None:
+            frac = 0.4 + 0.6 * min(1.0, info["iteration"] / max(1, max_outer))
+            job.update(stage="optimizing", fraction=frac, objective=info.get("objective"),
+                       iteration=info.get("iteration"))
+        elif "residual" in info:
+            job.update(stage=stage)
+        else:
+            job.update(stage=stage, fraction=_GRADE_STAGES.get(stage))
+    return progress
+
+
+def run_grade(inp: RunInputs, job) -> GradeOutput:
+    """seamfit.opt.grade on the captured inputs, cached by their content: the same inputs
+    give the previous result at once. Within a run seamfit reuses its own caches of body
+    distance fields and base drapes, so changing strengths or the target skips those."""
+    opt = seamfit_module("opt.grade")
+    check_device(inp.device)
+    key = digest(inp.pattern_json, round(inp.edge_length_cm, 6), inp.base.key, inp.target.key,
+                 inp.strengths, inp.opt, inp.sim)
+    from seamfit.errors import SolveError
+
+    def make():
+        pattern = pattern_from_json(inp.pattern_json)
+        fabric, sim_settings = _sim_objects(inp.sim, inp.device)
+        settings = opt.GradeSettings(
+            strengths=dict(inp.strengths), edge_length_cm=float(inp.edge_length_cm),
+            sdf_spacing=float(inp.sim.get("sdf_spacing_m", 0.0025)),
+            inner_iterations=int(inp.opt["S"]), checkpoint_every=int(inp.opt["M"]),
+            max_outer_iterations=int(inp.opt["iterations"]))
+        try:
+            res = opt.grade(pattern, body_object(inp.base), body_object(inp.target), settings,
+                            fabric=fabric, sim_settings=sim_settings,
+                            progress=_grade_progress(job, settings.max_outer_iterations))
+        except SolveError:
+            job.check()         # cancelled: nothing is cached
+            raise
+        job.check()
+        return res
+    res = CACHE.get("grade", key, make)
+    job.update(stage="done", fraction=1.0)
+    import copy
+    graded = copy.deepcopy(res.pattern)     # the cached result stays as seamfit made it
+    graded.body_id = inp.target.name
+    g = garment(res.mesh, res.x)
+    g.uv_cm = np.asarray(res.uv_cm)
+    g.stretch = stretch_ratio_per_vertex(res.uv_cm, res.x, res.mesh.triangles)
+    r = res.report
+    ease = (r.get("ease_cm") or {}).get("result") or {}
+    return GradeOutput(
+        pattern_json=pattern_to_json(graded), base_pattern_json=inp.pattern_json, garment=g,
+        objective=float(r["objective_final"]), iterations=int(r["outer_iterations"]),
+        converged=bool(r["converged"]), message=str(r["message"]),
+        fit={k: float(v) for k, v in ease.items() if v is not None}, report=r, result=res,
+        base_name=inp.base.name, target_name=inp.target.name, target_body=body_object(inp.target))
+
+
+def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | None = None) -> list:
+    """The files `seamfit grade` writes (pattern.json, pattern.svg, garment.obj, drape.png,
+    report.json), from a grading run of the add-on, with the same seamfit writers."""
+    import copy
+    import json as _json
+    from pathlib import Path
+    from seamfit.fileio import atomic_write_text
+    from seamfit.mesh import write_obj
+    from seamfit.pattern import save_pattern, write_svg
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    res = g.result
+    base = pattern_from_json(g.base_pattern_json, source="base pattern")
+    graded = pattern_from_json(g.pattern_json, source="graded pattern")
+    save_pattern(graded, out / "pattern.json", overwrite=True)
+    write_svg(out / "pattern.svg", [base, graded], labels=[f"base ({g.base_name})", f"graded ({g.target_name})"])
+    mesh = copy.copy(res.mesh)
+    mesh.uv_cm = res.uv_cm
+    write_obj(out / "garment.obj", mesh, positions=res.x)
+    written = [out / "pattern.json", out / "pattern.svg", out / "garment.obj"]
+    if picture and importlib.util.find_spec("matplotlib") is not None:
+        # seamfit draws it with matplotlib, which Blender does not ship: only where it is installed.
+        from seamfit.sim.render import render_drape
+        tb = g.target_body
+        render_drape(out / "drape.png", res.x, res.mesh.triangles, res.mesh.triangle_panel,
+                     body_vertices=None if tb is None else tb.vertices,
+                     body_faces=None if tb is None else tb.faces,
+                     title=f"{base.garment_id or 'pattern'} graded to {g.target_name}")
+        written.append(out / "drape.png")
+
+    def jsonable(o):
+        if isinstance(o, np.generic):
+            return o.item()
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+        return str(o)
+    report = dict(g.report)
+    if inputs is not None:
+        report["inputs"] = dict(inputs)
+    atomic_write_text(out / "report.json", _json.dumps(report, indent=1, default=jsonable) + "\n")
+    written.append(out / "report.json")
+    return written

@@ -1,0 +1,218 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Operators for patterns and bodies: import, export, body checks, cache."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import bpy
+import numpy as np
+from bpy.props import BoolProperty, EnumProperty, StringProperty
+from bpy_extras.io_utils import ExportHelper, ImportHelper
+
+from . import compute, scene_io
+from .cache import CACHE
+
+
+def capture_body(obj, depsgraph) -> compute.BodyInput:
+    """The body as it shows in the scene (modifiers applied), in world metres."""
+    if obj is None or obj.type != "MESH":
+        raise compute.AddonError("pick a mesh object as the body")
+    ev = obj.evaluated_get(depsgraph)
+    me = ev.to_mesh()
+    try:
+        me.calc_loop_triangles()
+        v = np.empty(len(me.vertices) * 3)
+        me.vertices.foreach_get("co", v)
+        t = np.empty(len(me.loop_triangles) * 3, dtype=np.int32)
+        me.loop_triangles.foreach_get("vertices", t)
+    finally:
+        ev.to_mesh_clear()
+    if len(t) == 0:
+        raise compute.AddonError(f"body {obj.name!r} has no faces")
+    # Blender keeps float32; the shortest decimal of each float32 is the number the mesh file
+    # held (OBJ/PLY bodies carry at most 7 digits), so seamfit gets the very body the command
+    # line reads from that file, not one perturbed by 1e-7.
+    v = _decimal_f32(v).reshape(-1, 3)
+    m = _decimal_f32(np.array(obj.matrix_world, dtype=np.float32).ravel()).reshape(4, 4)
+    if not np.array_equal(m, np.eye(4)):
+        v = v @ m[:3, :3].T + m[:3, 3]
+    return compute.BodyInput(obj.name, v, t.reshape(-1, 3))
+
+
+def _decimal_f32(a) -> np.ndarray:
+    """float64 of the shortest decimal that gives back each float32 (numpy's repr)."""
+    return np.array([float(repr(x)) for x in np.asarray(a, dtype=np.float32)], dtype=np.float64)
+
+
+def pattern_name(pattern, filepath: str) -> str:
+    parts = [p for p in (pattern.garment_id, pattern.body_id) if p]
+    return " ".join(parts) if parts else Path(filepath).stem
+
+
+class SEAMFIT_OT_import_pattern(bpy.types.Operator, ImportHelper):
+    """Import a sewing pattern (sewpat-1 or GarmentCode JSON) as flat panel curves"""
+    bl_idname = "seamfit.import_pattern"
+    bl_label = "Import Sewing Pattern"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+
+    def execute(self, context):
+        try:
+            pattern = compute.load_pattern(self.filepath)
+            warnings = compute.check_pattern(pattern)
+            name = pattern_name(pattern, self.filepath)
+            coll = scene_io.build_pattern(context, pattern, name, source=self.filepath,
+                                          body=pattern.body_id or "")
+        except compute.user_errors() as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        context.scene.seamfit.pattern = coll
+        for w in warnings:
+            self.report({"WARNING"}, w)
+        self.report({"INFO"}, f"Imported {coll.name}: {len(pattern.panels)} panels, "
+                              f"{len(pattern.stitches)} stitches")
+        return {"FINISHED"}
+
+
+class SEAMFIT_OT_export_pattern(bpy.types.Operator, ExportHelper):
+    """Export a pattern of the scene (as its curves show it now) to sewpat-1 JSON or SVG"""
+    bl_idname = "seamfit.export_pattern"
+    bl_label = "Export Sewing Pattern"
+    bl_options = {"REGISTER"}
+
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json;*.svg", options={"HIDDEN"})
+    collection: StringProperty(name="Pattern", description="Name of the pattern collection (the active "
+                               "pattern when empty)")
+    format: EnumProperty(name="Format", items=[
+        ("SEWPAT", "sewpat-1 (.json)", "seamfit's pattern format: outlines, curves, stitches, placement"),
+        ("SVG", "SVG (.svg)", "A drawing of the panels in centimetres"),
+    ], default="SEWPAT")
+    with_base: BoolProperty(name="Include base pattern", default=True,
+                            description="For a graded pattern, draw the base pattern under it in the SVG")
+
+    def check(self, context):
+        # Keep the file extension in step with the chosen format.
+        ext = ".svg" if self.format == "SVG" else ".json"
+        changed = self.filename_ext != ext
+        self.filename_ext = ext
+        if self.filepath:
+            root, old = os.path.splitext(self.filepath)
+            if old.lower() in (".json", ".svg") and old.lower() != ext:
+                self.filepath = root + ext
+                changed = True
+        return changed
+
+    def _collection(self, context):
+        if self.collection:
+            coll = bpy.data.collections.get(self.collection)
+            if coll is None:
+                raise compute.AddonError(f"no collection named {self.collection!r}")
+            return coll
+        coll = context.scene.seamfit.pattern
+        if coll is None:
+            raise compute.AddonError("no pattern to export: import one or pick it in the Patterns panel")
+        return coll
+
+    def execute(self, context):
+        try:
+            coll = self._collection(context)
+            pattern = scene_io.pattern_from_collection(coll)
+            if self.format == "SVG":
+                patterns, labels = [pattern], [coll.name]
+                base = coll.get("seamfit_base")
+                if self.with_base and base and base in bpy.data.collections:
+                    patterns.insert(0, scene_io.pattern_from_collection(bpy.data.collections[base]))
+                    labels.insert(0, base)
+                compute.save_svg(patterns, self.filepath, labels=labels)
+            else:
+                compute.save_pattern(pattern, self.filepath)
+        except compute.user_errors() as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Exported {coll.name} to {self.filepath}")
+        return {"FINISHED"}
+
+
+class SEAMFIT_OT_check_bodies(bpy.types.Operator):
+    """Check the base and target bodies and measure their height and girths"""
+    bl_idname = "seamfit.check_bodies"
+    bl_label = "Check Bodies"
+    bl_options = {"REGISTER", "UNDO"}     # the reports are stored in the scene
+
+    def execute(self, context):
+        s = context.scene.seamfit
+        depsgraph = context.evaluated_depsgraph_get()
+        failed = False
+        for obj, rep, role in ((s.base_body, s.base_report, "base"), (s.target_body, s.target_report, "target")):
+            rep.checked = False
+            if obj is None:
+                continue
+            ok, message = check_body_into(rep, obj, depsgraph)
+            if not ok:
+                failed = True
+                self.report({"ERROR"}, f"{role} body {obj.name!r}: {message}")
+        if s.base_body is None and s.target_body is None:
+            self.report({"ERROR"}, "pick a base and a target body first")
+            return {"CANCELLED"}
+        return {"CANCELLED"} if failed else {"FINISHED"}
+
+
+def check_body_into(rep, obj, depsgraph) -> tuple[bool, str]:
+    """Fill a body report; returns (ok, message)."""
+    try:
+        body = capture_body(obj, depsgraph)
+        report = compute.body_report(body)
+    except compute.user_errors() as exc:
+        rep.checked, rep.ok, rep.message, rep.key = True, False, str(exc), ""
+        return False, str(exc)
+    rep.checked = True
+    rep.key = body.key
+    rep.ok = not report["errors"]
+    msgs = report["errors"] or report["warnings"]
+    rep.message = "; ".join(msgs) if msgs else "valid"
+    m = report["measurements"]
+    rep.height = m.get("height", 0.0)
+    rep.bust = m.get("bust", 0.0)
+    rep.waist = m.get("waist", 0.0)
+    rep.hip = m.get("hip", 0.0)
+    return rep.ok, rep.message
+
+
+class SEAMFIT_OT_clear_cache(bpy.types.Operator):
+    """Forget cached meshes, distance fields, drapes and factorizations"""
+    bl_idname = "seamfit.clear_cache"
+    bl_label = "Clear Cache"
+
+    def execute(self, context):
+        CACHE.clear()
+        return {"FINISHED"}
+
+
+def menu_import(self, context):
+    self.layout.operator(SEAMFIT_OT_import_pattern.bl_idname, text="Sewing Pattern (.json)")
+
+
+def menu_export(self, context):
+    self.layout.operator(SEAMFIT_OT_export_pattern.bl_idname, text="Sewing Pattern (.json, .svg)")
+
+
+CLASSES = (SEAMFIT_OT_import_pattern, SEAMFIT_OT_export_pattern, SEAMFIT_OT_check_bodies,
+           SEAMFIT_OT_clear_cache)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+    bpy.types.TOPBAR_MT_file_import.append(menu_import)
+    bpy.types.TOPBAR_MT_file_export.append(menu_export)
+
+
+def unregister():
+    bpy.types.TOPBAR_MT_file_export.remove(menu_export)
+    bpy.types.TOPBAR_MT_file_import.remove(menu_import)
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

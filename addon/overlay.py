@@ -1,0 +1,106 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Viewport overlay: panel corners as dots and stitch lengths as labels, for the patterns
+in the scene. What to draw is computed by ``overlay_items`` (testable without a GPU);
+the draw callbacks only exist when Blender has a display."""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from . import scene_io
+
+_handles: list = []
+_stitch_ranges: dict = {}
+
+
+def _ranges(coll) -> list:
+    """Side A (panel, range) of every stitch, parsed once per stored pattern."""
+    text = coll[scene_io.PATTERN_KEY]
+    key = (coll.name, hash(text))
+    if key not in _stitch_ranges:
+        import json
+        if len(_stitch_ranges) > 32:
+            _stitch_ranges.clear()
+        _stitch_ranges[key] = [(s["a"]["panel"], tuple(s["a"]["range"]))
+                               for s in json.loads(text)["stitches"]]
+    return _stitch_ranges[key]
+
+
+def overlay_items(scene) -> dict:
+    """{"corners": (n, 3) world points, "labels": [(world point, text)]} for every visible
+    pattern collection of ``scene``."""
+    corners, labels = [], []
+    for coll in bpy.data.collections:
+        if not scene_io.is_pattern_collection(coll) or coll.seamfit.role == "drape":
+            continue
+        objs = scene_io.panel_objects(coll)
+        pts_world = {}
+        for name, obj in objs.items():
+            if obj.type != "CURVE" or not obj.visible_get() or not obj.data.splines:
+                continue
+            pts = obj.data.splines[0].points
+            co = np.zeros(len(pts) * 4)
+            pts.foreach_get("co", co)
+            m = np.array(obj.matrix_world)
+            w = co.reshape(-1, 4)[:, :3] @ m[:3, :3].T + m[:3, 3]
+            pts_world[name] = w
+            idx = [i for i in obj.get("seamfit_corners", []) if 0 <= i < len(w)]
+            corners.extend(w[idx])
+        for (panel, (i0, i1)), info in zip(_ranges(coll), coll.seamfit.stitches):
+            w = pts_world.get(panel)
+            if w is None:
+                continue
+            n = len(w)
+            mid = (i0 + ((i1 - i0) % n) // 2) % n
+            text = f"{info.length_a_cm:.1f}"
+            if abs(info.length_a_cm - info.length_b_cm) > 0.05:
+                text += f"/{info.length_b_cm:.1f}"
+            labels.append((w[mid], text + " cm"))
+    return {"corners": np.asarray(corners).reshape(-1, 3), "labels": labels}
+
+
+def _draw_view():
+    ctx = bpy.context
+    s = getattr(ctx.scene, "seamfit", None)
+    if s is None or not s.show_overlay:
+        return
+    import gpu
+    from gpu_extras.batch import batch_for_shader
+    items = overlay_items(ctx.scene)
+    if not len(items["corners"]):
+        return
+    shader = gpu.shader.from_builtin("POINT_UNIFORM_COLOR")
+    batch = batch_for_shader(shader, "POINTS", {"pos": [tuple(p) for p in items["corners"]]})
+    gpu.state.point_size_set(7.0)
+    shader.uniform_float("color", (1.0, 0.45, 0.1, 1.0))
+    batch.draw(shader)
+    gpu.state.point_size_set(1.0)
+
+
+def _draw_pixel():
+    ctx = bpy.context
+    s = getattr(ctx.scene, "seamfit", None)
+    if s is None or not s.show_overlay or ctx.region_data is None:
+        return
+    import blf
+    from bpy_extras.view3d_utils import location_3d_to_region_2d
+    font = 0
+    blf.size(font, 12)
+    blf.color(font, 1.0, 0.9, 0.5, 1.0)
+    for pos, text in overlay_items(ctx.scene)["labels"]:
+        xy = location_3d_to_region_2d(ctx.region, ctx.region_data, pos)
+        if xy is not None:
+            blf.position(font, xy[0], xy[1], 0)
+            blf.draw(font, text)
+
+
+def register():
+    if bpy.app.background:
+        return
+    _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_view, (), "WINDOW", "POST_VIEW"))
+    _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_pixel, (), "WINDOW", "POST_PIXEL"))
+
+
+def unregister():
+    while _handles:
+        bpy.types.SpaceView3D.draw_handler_remove(_handles.pop(), "WINDOW")

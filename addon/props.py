@@ -1,0 +1,200 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Settings stored in the .blend: the scene's seamfit settings and, on collections made by
+seamfit, a summary of the pattern they hold."""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
+                       PointerProperty, StringProperty)
+
+from . import compute, presets, scene_io
+
+
+class SEAMFIT_PG_panel_info(bpy.types.PropertyGroup):
+    n_vertices: IntProperty(name="Outline points")
+    n_corners: IntProperty(name="Corners")
+    area_cm2: FloatProperty(name="Area (cm²)")
+
+
+class SEAMFIT_PG_stitch_info(bpy.types.PropertyGroup):
+    panel_a: StringProperty(name="Side A")
+    panel_b: StringProperty(name="Side B")
+    length_a_cm: FloatProperty(name="Length A (cm)")
+    length_b_cm: FloatProperty(name="Length B (cm)")
+    gathered: BoolProperty(name="Gathered")
+
+
+class SEAMFIT_PG_fit(bpy.types.PropertyGroup):
+    """Ease (garment girth minus body girth) of a garment on a body, in cm."""
+    valid: BoolProperty(default=False)
+    bust: FloatProperty(name="Bust ease (cm)")
+    waist: FloatProperty(name="Waist ease (cm)")
+    hip: FloatProperty(name="Hip ease (cm)")
+    has_bust: BoolProperty(description="The garment goes round the body at bust level")
+    has_waist: BoolProperty(description="The garment goes round the body at waist level")
+    has_hip: BoolProperty(description="The garment goes round the body at hip level")
+
+
+class SEAMFIT_PG_pattern_info(bpy.types.PropertyGroup):
+    role: StringProperty(name="Role")
+    source: StringProperty(name="Source file")
+    body: StringProperty(name="Body", description="The body this pattern was graded or draped for")
+    panels: CollectionProperty(type=SEAMFIT_PG_panel_info)
+    stitches: CollectionProperty(type=SEAMFIT_PG_stitch_info)
+    active_panel: IntProperty()
+    active_stitch: IntProperty()
+    fit: PointerProperty(type=SEAMFIT_PG_fit)
+    objective: FloatProperty(name="Final objective")
+    iterations: IntProperty(name="Iterations")
+
+
+class SEAMFIT_PG_body_report(bpy.types.PropertyGroup):
+    checked: BoolProperty(default=False)
+    key: StringProperty(description="Content hash of the mesh that was checked")
+    ok: BoolProperty(default=False)
+    message: StringProperty()
+    height: FloatProperty(name="Height (cm)")
+    bust: FloatProperty(name="Bust (cm)")
+    waist: FloatProperty(name="Waist (cm)")
+    hip: FloatProperty(name="Hip (cm)")
+
+
+def _is_pattern(self, coll):
+    return scene_io.is_pattern_collection(coll) and coll.get(scene_io.ROLE_KEY) != "drape"
+
+
+def _is_mesh(self, obj):
+    return obj.type == "MESH"
+
+
+_PRESETS = presets.presets()
+_applying_preset = False
+
+
+def _apply_preset(self, context):
+    global _applying_preset
+    if self.strength_preset == "CUSTOM":
+        return
+    values = _PRESETS.get(self.strength_preset)
+    if values is None:
+        return
+    _applying_preset = True
+    try:
+        for key, val in zip(presets.STRENGTH_KEYS, values[1]):
+            setattr(self, f"strength_{key}", val)
+    finally:
+        _applying_preset = False
+
+
+def _strength_edited(self, context):
+    if not _applying_preset and self.strength_preset != "CUSTOM":
+        preset = _PRESETS.get(self.strength_preset)
+        if preset is not None and any(
+                abs(getattr(self, f"strength_{k}") - v) > 1e-6 * max(1e-6, abs(v))
+                for k, v in zip(presets.STRENGTH_KEYS, preset[1])):
+            self.strength_preset = "CUSTOM"
+
+
+def _strength(name, desc, default):
+    return FloatProperty(name=name, description=desc + " (1/m²)", default=default, min=0.0,
+                         soft_max=1e7, precision=4, update=_strength_edited)
+
+
+_DEFAULT_PRESET = presets.DEFAULT if presets.DEFAULT in _PRESETS else next(iter(_PRESETS))
+_default = _PRESETS[_DEFAULT_PRESET][1]
+
+_FABRIC = compute.fabric_defaults()
+
+
+class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
+    pattern: PointerProperty(type=bpy.types.Collection, poll=_is_pattern, name="Pattern",
+                             description="The base pattern that drape and adjust use")
+    edge_length_cm: FloatProperty(
+        name="Mesh resolution (cm)", default=1.5, min=0.3, max=20.0, precision=2,
+        description="Target edge length of the simulation mesh: smaller is finer and slower")
+    base_body: PointerProperty(type=bpy.types.Object, poll=_is_mesh, name="Base body",
+                               description="The body the base pattern was made for")
+    target_body: PointerProperty(type=bpy.types.Object, poll=_is_mesh, name="Target body",
+                                 description="The body to grade the pattern to")
+    base_report: PointerProperty(type=SEAMFIT_PG_body_report)
+    target_report: PointerProperty(type=SEAMFIT_PG_body_report)
+
+    strength_preset: EnumProperty(name="Preset", items=presets.preset_items(), default=_DEFAULT_PRESET,
+                                  update=_apply_preset,
+                                  description="Strengths suited to a kind of garment (Wang 2018, Table 1)")
+    strength_fix: _strength("Fix", "Keeps boundary vertices near the base pattern", _default[0])
+    strength_cur: _strength("Curvature", "Keeps the shape of boundary curves", _default[1])
+    strength_dis: _strength("Distance", "Keeps the looseness of the garment per vertex", _default[2])
+    strength_smo: _strength("Smoothness", "Keeps folds and smoothness of the surface", _default[3])
+    strength_str: _strength("Stretching", "Keeps the stretch ratio of every edge", _default[4])
+    strength_pos: _strength("Positional", "Keeps every garment point where it sits on the body", _default[5])
+
+    fabric_stretch: FloatProperty(
+        name="Stretch stiffness (N/m)", default=_FABRIC["stretch_stiffness"], min=1.0, soft_max=1e5,
+        description="In-plane tensile stiffness of the fabric; seamfit's default is a medium woven cotton")
+    fabric_sewing: FloatProperty(name="Seam stiffness (N/m)", default=_FABRIC["sewing_stiffness"], min=0.0,
+                                 soft_max=1e6, description="Stiffness of one sewing spring")
+    fabric_bending: FloatProperty(name="Bending stiffness (N·m)", default=_FABRIC["bending_stiffness"], min=0.0,
+                                  soft_max=1e-3, precision=7, description="Flexural rigidity of the fabric")
+    fabric_density: FloatProperty(name="Density (kg/m²)", default=_FABRIC["density"], min=0.001, soft_max=2.0,
+                                  precision=3, description="Weight per area of the fabric")
+    mu: FloatProperty(name="Barrier μ", default=0.01, min=1e-6, soft_max=1.0, precision=4,
+                      description="Strength of the log barrier that keeps cloth outside the body")
+    sim_iterations: IntProperty(name="Drape iterations", default=40000, min=1, soft_max=100000,
+                                description="Most simulation iterations of a drape")
+    sdf_spacing_mm: FloatProperty(name="Body grid (mm)", default=2.5, min=0.5, soft_max=20.0, precision=2,
+                                  description="Spacing of the bodies' signed distance fields (Wang 2018: 2.5 mm)")
+    steps_per_iteration: IntProperty(name="S (simulation steps)", default=8, min=1, soft_max=256,
+                                     description="Simulation iterations per outer iteration of the grading")
+    exact_every: IntProperty(name="M (exact every)", default=32, min=1, soft_max=256,
+                             description="Inexact outer iterations between two exact ones")
+    iterations: IntProperty(name="Outer iterations", default=256, min=1, soft_max=4096,
+                            description="Most outer iterations of the grading")
+    device: EnumProperty(name="Device", default="AUTO", items=[
+        ("AUTO", "Auto", "CUDA when a GPU is present, otherwise CPU"),
+        ("CPU", "CPU", "Run on the processor"),
+        ("CUDA", "CUDA", "Run on the NVIDIA GPU (fails if none is present)"),
+    ])
+    show_overlay: BoolProperty(name="Pattern overlay", default=True,
+                               description="Draw corners and stitch lengths in the viewport")
+
+
+CLASSES = (SEAMFIT_PG_panel_info, SEAMFIT_PG_stitch_info, SEAMFIT_PG_fit, SEAMFIT_PG_pattern_info,
+           SEAMFIT_PG_body_report, SEAMFIT_PG_settings)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+    bpy.types.Scene.seamfit = PointerProperty(type=SEAMFIT_PG_settings)
+    bpy.types.Collection.seamfit = PointerProperty(type=SEAMFIT_PG_pattern_info)
+
+
+def unregister():
+    del bpy.types.Collection.seamfit
+    del bpy.types.Scene.seamfit
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)
+
+
+def _exact(value: float) -> float:
+    """The decimal a user typed, from Blender's float32 property: 0.05 stays 0.05 (not
+    0.0500000007), so the add-on hands seamfit the same numbers as the command line."""
+    return float(str(np.float32(value)))
+
+
+def settings_dict(s: SEAMFIT_PG_settings) -> dict:
+    """The scene settings as plain data for a worker thread."""
+    return {
+        "edge_length_cm": _exact(s.edge_length_cm),
+        "strengths": {k: _exact(getattr(s, f"strength_{k}")) for k in presets.STRENGTH_KEYS},
+        "sim": {"fabric": {"stretch_stiffness": _exact(s.fabric_stretch),
+                           "sewing_stiffness": _exact(s.fabric_sewing),
+                           "bending_stiffness": _exact(s.fabric_bending),
+                           "density": _exact(s.fabric_density)},
+                "mu": _exact(s.mu), "iterations": int(s.sim_iterations),
+                "sdf_spacing_m": _exact(s.sdf_spacing_mm) / 1000.0},
+        "opt": {"S": int(s.steps_per_iteration), "M": int(s.exact_every), "iterations": int(s.iterations)},
+        "device": s.device.lower(),
+    }

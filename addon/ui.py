@@ -1,0 +1,195 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The seamfit tab of the 3D viewport's sidebar: Patterns, Bodies, Costs, Run."""
+from __future__ import annotations
+
+import bpy
+
+from . import compute, jobs, scene_io
+from .cache import CACHE
+
+
+class SEAMFIT_UL_panels(bpy.types.UIList):
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        row = layout.row(align=True)
+        row.label(text=item.name, icon="MESH_PLANE")
+        row.label(text=f"{item.n_vertices} pts, {item.n_corners} corners")
+        row.label(text=f"{item.area_cm2:.0f} cm²")
+
+
+class SEAMFIT_UL_stitches(bpy.types.UIList):
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        row = layout.row(align=True)
+        row.label(text=f"{item.panel_a} – {item.panel_b}", icon="AUTOMERGE_ON" if not item.gathered else "MOD_CLOTH")
+        row.label(text=f"{item.length_a_cm:.1f} / {item.length_b_cm:.1f} cm")
+
+
+class _SeamfitPanel:
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "seamfit"
+
+
+class SEAMFIT_PT_patterns(_SeamfitPanel, bpy.types.Panel):
+    bl_label = "Patterns"
+
+    def draw(self, context):
+        s = context.scene.seamfit
+        layout = self.layout
+        layout.operator("seamfit.import_pattern", icon="IMPORT")
+        layout.prop(s, "pattern")
+        row = layout.row(align=True)
+        row.prop(s, "edge_length_cm")
+        row.operator("seamfit.build_mesh", text="", icon="MOD_TRIANGULATE")
+        coll = s.pattern
+        if coll is None:
+            layout.label(text="No pattern: import a sewpat-1 or GarmentCode file", icon="INFO")
+            return
+        info = coll.seamfit
+        if info.source:
+            layout.label(text=bpy.path.basename(info.source), icon="FILE")
+        layout.label(text=f"Panels ({len(info.panels)})")
+        layout.template_list("SEAMFIT_UL_panels", "", info, "panels", info, "active_panel", rows=3)
+        layout.label(text=f"Stitches ({len(info.stitches)}): length of side A / side B")
+        layout.template_list("SEAMFIT_UL_stitches", "", info, "stitches", info, "active_stitch", rows=3)
+        layout.prop(s, "show_overlay")
+        row = layout.row(align=True)
+        op = row.operator("seamfit.export_pattern", text="Export sewpat-1", icon="EXPORT")
+        op.format, op.collection = "SEWPAT", coll.name
+        op = row.operator("seamfit.export_pattern", text="Export SVG")
+        op.format, op.collection = "SVG", coll.name
+
+
+def _draw_body(layout, s, prop, rep):
+    box = layout.box()
+    box.prop(s, prop)
+    if getattr(s, prop) is None or not rep.checked:
+        return
+    if not rep.ok:
+        box.label(text=rep.message, icon="ERROR")
+        return
+    col = box.column(align=True)
+    col.label(text=f"Height {rep.height:.1f} cm", icon="CHECKMARK")
+    col.label(text=f"Bust {rep.bust:.1f}   Waist {rep.waist:.1f}   Hip {rep.hip:.1f} cm")
+    if rep.message and rep.message != "valid":
+        col.label(text=rep.message, icon="INFO")
+
+
+class SEAMFIT_PT_bodies(_SeamfitPanel, bpy.types.Panel):
+    bl_label = "Bodies"
+
+    def draw(self, context):
+        s = context.scene.seamfit
+        _draw_body(self.layout, s, "base_body", s.base_report)
+        _draw_body(self.layout, s, "target_body", s.target_report)
+        self.layout.operator("seamfit.check_bodies", icon="VIEWZOOM")
+
+
+class SEAMFIT_PT_costs(_SeamfitPanel, bpy.types.Panel):
+    bl_label = "Costs"
+
+    def draw(self, context):
+        s = context.scene.seamfit
+        layout = self.layout
+        layout.prop(s, "strength_preset")
+        col = layout.column(align=True)
+        for key in ("fix", "cur", "dis", "smo", "str", "pos"):
+            col.prop(s, f"strength_{key}")
+
+
+class SEAMFIT_PT_simulation(_SeamfitPanel, bpy.types.Panel):
+    bl_label = "Simulation"
+    bl_parent_id = "SEAMFIT_PT_costs"
+
+    def draw(self, context):
+        s = context.scene.seamfit
+        col = self.layout.column(align=True)
+        col.label(text="Fabric")
+        for name in ("fabric_stretch", "fabric_sewing", "fabric_bending", "fabric_density"):
+            col.prop(s, name)
+        col = self.layout.column(align=True)
+        for name in ("mu", "sdf_spacing_mm", "sim_iterations", "steps_per_iteration", "exact_every", "iterations"):
+            col.prop(s, name)
+        self.layout.prop(s, "device")
+        dev = _device()
+        if dev["error"]:
+            self.layout.label(text=dev["error"], icon="ERROR")
+        elif dev["cuda"]:
+            self.layout.label(text=f"GPU: {dev['name']}", icon="CHECKMARK")
+        else:
+            self.layout.label(text=f"CPU: {dev['why']}", icon="INFO")
+
+
+_device_cache: dict = {}
+
+
+def _device() -> dict:
+    # Asked once per session: the panel redraws often and the answer does not change.
+    if not _device_cache:
+        _device_cache.update(compute.device_status())
+    return _device_cache
+
+
+class SEAMFIT_PT_cache(_SeamfitPanel, bpy.types.Panel):
+    bl_label = "Cached Precomputation"
+    bl_parent_id = "SEAMFIT_PT_costs"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        counts = CACHE.counts()
+        col = self.layout.column(align=True)
+        names = {"mesh": "Sewn meshes", "body": "Bodies", "sdf": "Distance fields",
+                 "drape": "Base drapes", "grader": "Factorizations", "grade": "Gradings"}
+        for key, label in names.items():
+            col.label(text=f"{label}: {counts.get(key, 0)}  (reused {CACHE.hits.get(key, 0)}×)")
+        self.layout.operator("seamfit.clear_cache", icon="TRASH")
+
+
+class SEAMFIT_PT_run(_SeamfitPanel, bpy.types.Panel):
+    bl_label = "Run"
+
+    def draw(self, context):
+        layout = self.layout
+        job = jobs.active()
+        if job is not None and not job.done:
+            snap = job.snapshot()
+            layout.progress(factor=snap["fraction"], type="BAR",
+                            text=f"{snap['stage']} {100 * snap['fraction']:.0f}%")
+            if snap["objective"] is not None:
+                layout.label(text=f"Objective {snap['objective']:.6g} (iteration {snap['iterations']})")
+            layout.label(text=f"{snap['elapsed']:.1f} s   Esc or Cancel stops it")
+            layout.operator("seamfit.cancel", icon="CANCEL")
+            return
+        row = layout.row(align=True)
+        row.operator("seamfit.drape", icon="MOD_CLOTH")
+        row.operator("seamfit.adjust", icon="MOD_SHRINKWRAP")
+        _draw_results(layout)
+
+
+def _draw_results(layout):
+    results = [c for c in bpy.data.collections
+               if scene_io.is_pattern_collection(c) and c.seamfit.role in {"drape", "graded"}]
+    if not results:
+        return
+    layout.label(text="Fit (ease: garment minus body girth)")
+    for c in results[-4:]:
+        box = layout.box()
+        box.label(text=c.name, icon="OUTLINER_COLLECTION")
+        fit = c.seamfit.fit
+        if fit.valid:
+            parts = [f"{k.capitalize()} {getattr(fit, k):+.1f}" if getattr(fit, f"has_{k}") else f"{k.capitalize()} –"
+                     for k in ("bust", "waist", "hip")]
+            box.label(text="   ".join(parts) + " cm")
+
+
+CLASSES = (SEAMFIT_UL_panels, SEAMFIT_UL_stitches, SEAMFIT_PT_patterns, SEAMFIT_PT_bodies,
+           SEAMFIT_PT_costs, SEAMFIT_PT_simulation, SEAMFIT_PT_cache, SEAMFIT_PT_run)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,92 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Helpers for the bpy tests: sample files, scene fingerprints, undo."""
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[2]
+SAMPLES = REPO / "sample_files"
+PENCIL = SAMPLES / "patterns" / "gc_pencil_skirt" / "size06" / "pattern.json"
+PENCIL_GC_SPEC = SAMPLES / "patterns" / "gc_pencil_skirt" / "size06" / "native" / "gc_pencil_skirt_specification.json"
+BODICE = SAMPLES / "patterns" / "fs_bodice" / "size06" / "pattern.json"
+BODY_BASE = SAMPLES / "bodies" / "women_size06.obj"
+BODY_TARGET = SAMPLES / "bodies" / "women_size10.obj"
+MODULE = "bl_ext.user_default.seamfit"
+
+# A coarse, short grading (seconds), the same for the add-on, the command line and the batch script.
+GRADE_EDGE_CM, GRADE_SDF_M, GRADE_OUTER, GRADE_EVERY = 4.0, 0.005, 8, 4
+GRADE_ARGS = ["--edge-length", str(GRADE_EDGE_CM), "--sdf-spacing", str(GRADE_SDF_M),
+              "--max-iterations", str(GRADE_OUTER), "--checkpoint-every", str(GRADE_EVERY)]
+
+
+def addon():
+    """The enabled extension's package (its modules: compute, scene_io, jobs, ...)."""
+    import importlib
+    return importlib.import_module(MODULE)
+
+
+def file_digest(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def object_fingerprint(obj) -> tuple:
+    """Name, transform and geometry of an object, to prove it was not modified."""
+    data = ()
+    if obj.type == "MESH":
+        co = np.empty(len(obj.data.vertices) * 3)
+        obj.data.vertices.foreach_get("co", co)
+        data = (len(obj.data.polygons), hashlib.sha1(co.tobytes()).hexdigest())
+    elif obj.type == "CURVE":
+        parts = []
+        for sp in obj.data.splines:
+            co = np.empty(len(sp.points) * 4)
+            sp.points.foreach_get("co", co)
+            parts.append(hashlib.sha1(co.tobytes()).hexdigest())
+        data = tuple(parts)
+    m = tuple(round(v, 9) for row in obj.matrix_world for v in row)
+    return (obj.name, obj.type, m, data, tuple(sorted(c.name for c in obj.users_collection)))
+
+
+def scene_fingerprint() -> dict:
+    return {
+        "objects": sorted(object_fingerprint(o) for o in bpy.data.objects),
+        "collections": sorted((c.name, tuple(sorted(o.name for o in c.objects))) for c in bpy.data.collections),
+        "meshes": sorted(m.name for m in bpy.data.meshes),
+        "curves": sorted(c.name for c in bpy.data.curves),
+    }
+
+
+def import_obj(path: Path, name: str):
+    """Import an OBJ body as it comes (Z up, metres), the way a user would."""
+    before = set(bpy.data.objects)
+    bpy.ops.wm.obj_import(filepath=str(path), forward_axis="Y", up_axis="Z")
+    new = [o for o in bpy.data.objects if o not in before]
+    assert len(new) == 1
+    new[0].name = name
+    return new[0]
+
+
+def window_override():
+    w = bpy.context.window_manager.windows[0]
+    return bpy.context.temp_override(window=w, screen=w.screen, area=w.screen.areas[0])
+
+
+def undo_push(message: str) -> None:
+    with window_override():
+        bpy.ops.ed.undo_push(message=message)
+
+
+def undo() -> None:
+    with window_override():
+        bpy.ops.ed.undo()
+
+
+def extension_site_packages() -> Path:
+    """Where Blender unpacked the extension's wheels."""
+    import sys
+    (site,) = [p for p in sys.path if p.endswith("site-packages") and "extensions" in p]
+    return Path(site)

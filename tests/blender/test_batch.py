@@ -1,0 +1,56 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""scripts/batch_grade.py with the bpy module: the same grading as `seamfit grade`, plus a
+.blend with the result."""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import bpy
+import numpy as np
+
+from helpers import BODY_BASE, BODY_TARGET, GRADE_ARGS, PENCIL, REPO
+
+
+def test_batch_script_writes_the_cli_files_and_a_blend(addon_zip, cli_grade, tmp_out):
+    from seamfit.pattern import load_pattern
+    cli_pattern, cli_report, cli_out = cli_grade
+    out = tmp_out / "batch"
+    env = dict(os.environ, BLENDER_USER_RESOURCES=tempfile.mkdtemp(prefix="seamfit-batch-user-"))
+    proc = subprocess.run([sys.executable, str(REPO / "tests" / "blender" / "run_isolated.py"),
+                           str(REPO / "scripts" / "batch_grade.py"), str(PENCIL), "--base-body", str(BODY_BASE),
+                           "--target-body", str(BODY_TARGET), "--out", str(out), "--addon-zip", str(addon_zip),
+                           "--no-picture", *GRADE_ARGS], env=env, capture_output=True, text=True, cwd=tmp_out)
+    assert proc.returncode == (0 if cli_report["converged"] else 1), proc.stderr[-3000:]
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [p.name for p in cli_out.iterdir()] + ["graded.blend"])
+    # The same adjusted pattern and report as the command line.
+    ours = load_pattern(out / "pattern.json")
+    for a, b in zip(ours.panels, cli_pattern.panels):
+        assert a.name == b.name and np.abs(a.outline_cm - b.outline_cm).max() <= 1e-9
+    report = json.loads((out / "report.json").read_text())
+    assert report.keys() == cli_report.keys()
+    assert report["objective_final"] == cli_report["objective_final"]
+    assert report["inputs"]["target_body"] == str(BODY_TARGET)
+    # The .blend holds the bodies, the base pattern and the result.
+    bpy.ops.wm.open_mainfile(filepath=str(out / "graded.blend"))
+    graded = [c for c in bpy.data.collections if c.seamfit.role == "graded"]
+    assert [c.name for c in graded] == ["women_size10 gc_pencil_skirt size06"]
+    assert {"women_size06", "women_size10"} <= set(bpy.data.objects.keys())
+    assert bpy.context.scene.seamfit.pattern.name == "gc_pencil_skirt size06"
+    stored = json.loads(graded[0]["seamfit_pattern"])
+    assert [p["outline_cm"] for p in stored["panels"]] == \
+        [p.outline_cm.tolist() for p in ours.panels]
+
+
+def test_batch_script_reports_bad_input(addon_zip, tmp_out):
+    env = dict(os.environ, BLENDER_USER_RESOURCES=tempfile.mkdtemp(prefix="seamfit-batch-user-"))
+    proc = subprocess.run([sys.executable, str(REPO / "tests" / "blender" / "run_isolated.py"),
+                           str(REPO / "scripts" / "batch_grade.py"), str(tmp_out / "nope.json"),
+                           "--base-body", str(BODY_BASE), "--target-body", str(BODY_TARGET),
+                           "--out", str(tmp_out / "o"), "--addon-zip", str(addon_zip)],
+                          env=env, capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "batch_grade: error:" in proc.stderr and "nope.json: no such file" in proc.stderr
+    assert not (tmp_out / "o").exists()

@@ -1,0 +1,64 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The built zip installs like any extension and brings its own seamfit."""
+from pathlib import Path
+
+import bpy
+import pytest
+
+from helpers import MODULE, addon
+
+
+def _extension_site_packages() -> Path:
+    return Path(bpy.utils.user_resource("EXTENSIONS", path=".local"))
+
+
+def test_zip_installs_and_enables(installed):
+    assert MODULE in bpy.context.preferences.addons
+    pkg = addon()
+    assert Path(pkg.__file__).parent.name == "seamfit"
+    for op in ("import_pattern", "export_pattern", "drape", "adjust", "check_bodies", "cancel"):
+        assert hasattr(bpy.ops.seamfit, op), op
+        assert getattr(bpy.ops.seamfit, op).get_rna_type() is not None
+    for cls in ("SEAMFIT_PT_patterns", "SEAMFIT_PT_bodies", "SEAMFIT_PT_costs", "SEAMFIT_PT_run"):
+        assert hasattr(bpy.types, cls), cls
+    assert hasattr(bpy.types.Scene, "seamfit")
+
+
+def test_bundled_wheels_are_the_ones_used(installed):
+    """seamfit, scipy and gmsh come from the wheels inside the zip (conftest hides any
+    other copy), and gmsh's native library loads."""
+    import gmsh
+    import scipy.sparse.linalg
+    import seamfit
+    import seamfit._native
+    site = _extension_site_packages().resolve()
+    for mod in (seamfit, scipy, gmsh):
+        assert site in Path(mod.__file__).resolve().parents, (mod.__name__, mod.__file__)
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        assert gmsh.isInitialized()
+    finally:
+        gmsh.finalize()
+    core = seamfit._native.core()
+    assert hasattr(core, "built_with_cuda")
+    assert scipy.sparse.linalg.spsolve is not None
+
+
+def test_user_scene_props_defaults(scene):
+    s = scene.seamfit
+    assert s.pattern is None and s.base_body is None and s.target_body is None
+    assert s.edge_length_cm == 1.5
+    assert s.device == "AUTO"
+    assert s.strength_preset == "dress"
+    assert (s.strength_fix, s.strength_cur, s.strength_dis, s.strength_smo, s.strength_str,
+            s.strength_pos) == pytest.approx((100.0, 1e6, 1.0, 0.05, 1.0, 100.0), rel=1e-6)
+
+
+def test_operators_that_change_the_scene_are_undoable(installed):
+    for cls in ("SEAMFIT_OT_import_pattern", "SEAMFIT_OT_build_mesh", "SEAMFIT_OT_drape", "SEAMFIT_OT_adjust",
+                "SEAMFIT_OT_check_bodies"):
+        assert "UNDO" in getattr(bpy.types, cls).bl_options, cls
+    # Export writes files only; drape and adjust have no redo panel (it would recompute).
+    assert "UNDO" not in bpy.types.SEAMFIT_OT_export_pattern.bl_options
+    assert "REGISTER" not in bpy.types.SEAMFIT_OT_adjust.bl_options

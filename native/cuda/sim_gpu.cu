@@ -262,7 +262,8 @@ __global__ void __launch_bounds__(256) k_step(DevModel<R> m, const Ctrl* c, doub
       SdfSample s;
       if (m.bar) s = S[v];
       Vec3 xn;
-      if (sim::chebyshev_safe_step(xo, load3(prev, v), d, c->omega, m.bar != 0, m.sdf, m.smooth != 0, s, xn))
+      if (sim::chebyshev_safe_step(xo, xo - load3(prev, v), d, c->omega, m.bar != 0, m.sdf, m.smooth != 0, 0.0, s,
+                                   xn) == sim::kStepRejected)
         acc[1] = 1;
       if (m.bar) S[v] = s;
       store3(prev, v, xn);

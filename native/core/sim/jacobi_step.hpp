@@ -48,20 +48,25 @@ SF_HD Vec3 jacobi_direction(Sym3 D, Vec3 f, double alpha) {
   return alpha * d;
 }
 
-// Chebyshev combination x_{k+1} = x_{k-1} + omega (x_k + d - x_{k-1}) written
-// as a step from xo = x_k, then the barrier-safe step (bar: a body is
-// present). s: the field sample at xo on entry, at the returned position on
-// exit. Returns true when the step was dropped for this vertex (it stays, and
-// its momentum is dropped with it since x_{k-1} becomes xo).
+// Verdicts of barrier_safe_step.
+enum StepVerdict { kStepTaken = 0, kStepRejected = 1, kStepFar = 2 };
+
+// Bound on |grad phi| of the barrier's field: a B-spline or trilinear reading of
+// a distance grid has each derivative a mean of grid differences (<= 1 each),
+// so |grad phi| <= sqrt(3); 1.8 leaves room for round-off in the grid.
+constexpr double kLipschitz = 1.8;
+
+// The barrier-safe step of one vertex from xo (field sample s there) along the
+// proposed displacement dv; xn receives the position taken, sn the sample
+// there. far > 0: a step that provably ends beyond phi = far (Lipschitz bound)
+// is taken unsampled and sn carries the bound with a zero gradient (kStepFar).
 //
 // A vertex may close at most half its gap along the SDF normal, and never
 // moves further than its gap or kFreeStep; a step that still lands too close
-// (curved or creased body) slides back out to half the old gap, or is dropped.
-SF_HD bool chebyshev_safe_step(Vec3 xo, Vec3 xprev, Vec3 d, double omega, bool bar, const SdfGridView& g,
-                               bool smooth, SdfSample& s, Vec3& xn) {
-  Vec3 dv = omega * d + (omega - 1.0) * (xo - xprev);
-  xn = xo + dv;
-  if (!bar) return false;
+// (curved or creased body) slides back out to half the old gap, or is dropped
+// (kStepRejected: xn = xo, sn = s).
+SF_HD int barrier_safe_step(const SdfGridView& g, bool smooth, const SdfSample& s, Vec3 xo, Vec3 dv, double far,
+                            Vec3& xn, SdfSample& sn) {
   const double gn = norm(s.grad);
   if (gn > 1e-12 && s.phi > 0) {
     const Vec3 nrm = (1.0 / gn) * s.grad;
@@ -71,7 +76,14 @@ SF_HD bool chebyshev_safe_step(Vec3 xo, Vec3 xprev, Vec3 d, double omega, bool b
   const double len = norm(dv), cap = step_max(0.9 * s.phi, kFreeStep);
   if (len > cap) dv = (cap / len) * dv;
   xn = xo + dv;
-  SdfSample sn = barrier_field(g, smooth, xn);
+  // Far from the body: a Lipschitz lower bound of phi instead of a sample.
+  const double bound = s.phi - kLipschitz * norm(dv);
+  if (far > 0 && bound > far) {
+    sn.phi = bound;
+    sn.grad = make_vec3(0, 0, 0);
+    return kStepFar;
+  }
+  sn = barrier_field(g, smooth, xn);
   // Sliding along the body: where the body curves away from the tangent plane
   // (or creases), a step can close more than half the gap although its normal
   // part may not; such a step is pushed back out along the field to its linear
@@ -85,14 +97,29 @@ SF_HD bool chebyshev_safe_step(Vec3 xo, Vec3 xprev, Vec3 d, double omega, bool b
     xn += ((want - sn.phi) / g2) * sn.grad;
     sn = barrier_field(g, smooth, xn);
   }
-  bool rejected = false;
   if (sn.phi < 0.25 * s.phi || !(sn.phi > kProjectFloor) || norm(xn - xo) > 2.0 * step_max(len, 1e-300)) {
     xn = xo;
     sn = s;
-    rejected = true;
+    return kStepRejected;
   }
+  return kStepTaken;
+}
+
+// Chebyshev combination x_{k+1} = x_{k-1} + omega (x_k + d - x_{k-1}) written
+// as a step from xo = x_k with momentum mom = x_k - x_{k-1}, then the
+// barrier-safe step (bar: a body is present; far as in barrier_safe_step).
+// s: the field sample at xo on entry, at the returned position xn on exit.
+SF_HD int chebyshev_safe_step(Vec3 xo, Vec3 mom, Vec3 d, double omega, bool bar, const SdfGridView& g,
+                              bool smooth, double far, SdfSample& s, Vec3& xn) {
+  const Vec3 dv = omega * d + (omega - 1.0) * mom;
+  if (!bar) {
+    xn = xo + dv;
+    return kStepTaken;
+  }
+  SdfSample sn;
+  const int r = barrier_safe_step(g, smooth, s, xo, dv, far, xn, sn);
   s = sn;
-  return rejected;
+  return r;
 }
 
 }  // namespace seamfit::sim

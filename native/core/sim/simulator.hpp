@@ -201,11 +201,6 @@ class Simulator {
   // Plain block-Jacobi descent sweeps (barrier-safe, energy never rises);
   // returns the energy at the result.
   double jacobi_sweeps(double* x, int sweeps, double alpha);
-  // Barrier-safe displacement dv of one vertex from xo (with sample s there);
-  // dv is clipped in place, sn receives the sample at the result. far > 0:
-  // beyond that distance return kStepFar with a Lipschitz bound, unsampled.
-  enum { kStepTaken = 0, kStepRejected = 1, kStepFar = 2 };
-  int safe_vertex_step(const SdfSample& s, Vec3 xo, Vec3& dv, double far, SdfSample& sn) const;
   SdfSample sdf_at(Vec3 p) const;   // the barrier's field: value and gradient
   Sym3 sdf_hess_at(Vec3 p) const;    // and its Hessian
 

@@ -33,22 +33,11 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-<<<<<<< HEAD
-// Vertices closer to the body than this (m) are projected out; anything above
-// is a legitimate barrier state (pressed contact settles at tiny gaps).
-constexpr double kProjectFloor = 1e-9;
-// A vertex step may always be this long (m), thinner than any body part, so a
-// bounded step cannot jump through the body between two outside states.
-constexpr double kFreeStep = 0.005;
-// Bound on |grad phi| of the barrier's field: a B-spline or trilinear reading of
-// a distance grid has each derivative a mean of grid differences (<= 1 each),
-// so |grad phi| <= sqrt(3); 1.8 leaves room for round-off in the grid.
-constexpr double kLipschitz = 1.8;
+// kProjectFloor, kFreeStep, kLipschitz and the safe step come from
+// sim/jacobi_step.hpp, shared with the GPU.
 // Iterations between refreshes of the springs' share of the Jacobi blocks.
 constexpr int kPrecondRefresh = 4;
 
-=======
->>>>>>> wt-cuda
 inline double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
@@ -66,47 +55,6 @@ inline double energy_slack(const EnergyTerms& t) {
 }
 
 }  // namespace
-
-int Simulator::safe_vertex_step(const SdfSample& s, Vec3 xo, Vec3& dv, double far, SdfSample& sn) const {
-  // Close at most half the gap along the SDF normal.
-  const double gn = norm(s.grad);
-  if (gn > 1e-12 && s.phi > 0) {
-    const Vec3 nrm = (1.0 / gn) * s.grad;
-    const double dn = dot(dv, nrm), lim = -0.5 * s.phi;
-    if (dn < lim) dv -= (dn - lim) * nrm;
-  }
-  // Move no further than the gap (so no jump through the body) or kFreeStep.
-  const double len = norm(dv), cap = std::max(0.9 * s.phi, kFreeStep);
-  if (len > cap) dv = (cap / len) * dv;
-  // Far from the body: a Lipschitz lower bound of phi instead of a sample.
-  const double bound = s.phi - kLipschitz * norm(dv);
-  if (far > 0 && bound > far) {
-    sn = SdfSample{bound, make_vec3(0, 0, 0)};
-    return kStepFar;
-  }
-  Vec3 xn = xo + dv;
-  sn = sdf_at(xn);
-  // Sliding along the body: where the body curves away from the tangent plane
-  // (or creases) a step can close more than half the gap although its normal
-  // part does not; it is pushed back out along the field to its linear
-  // prediction phi + grad.dv (at least half the old gap), a few Newton steps
-  // on phi. Failing that the vertex stays. Steps that keep half the gap are
-  // left alone (pure descent).
-  const double want = std::max(s.phi + dot(s.grad, dv), 0.5 * s.phi);
-  for (int h = 0; h < 3 && sn.phi < 0.5 * s.phi && sn.phi < want; ++h) {
-    const double g2 = norm2(sn.grad);
-    if (!(g2 > 1e-12)) break;
-    xn += ((want - sn.phi) / g2) * sn.grad;
-    sn = sdf_at(xn);
-  }
-  if (sn.phi < 0.25 * s.phi || !(sn.phi > kProjectFloor) || norm(xn - xo) > 2.0 * std::max(norm(dv), 1e-300)) {
-    dv = make_vec3(0, 0, 0);
-    sn = s;
-    return kStepRejected;
-  }
-  dv = xn - xo;
-  return kStepTaken;
-}
 
 SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const ProgressFn& progress,
                                        const std::atomic<bool>* cancel) {
@@ -145,11 +93,8 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   double omega = 1.0;
   bool fresh_seq = false;        // the Chebyshev sequence restarts at the next step
   std::vector<double> upd_norm;  // |dx| during warm-up, for the rho estimate
-<<<<<<< HEAD
   // Beyond this phi (a margin past the barrier's reach) vertices skip the SDF.
   const double far = params_.barrier_distance + 0.002;
-=======
->>>>>>> wt-cuda
 
   int it = 0;
   for (;; ++it) {
@@ -242,51 +187,20 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
 #pragma omp parallel for reduction(+ : rejected) schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
       const Vec3 xo = {xc[3 * v], xc[3 * v + 1], xc[3 * v + 2]};
-<<<<<<< HEAD
       Vec3 mom = {xc[3 * v] - xp[3 * v], xc[3 * v + 1] - xp[3 * v + 1], xc[3 * v + 2] - xp[3 * v + 2]};
       if (st.momentum_restart == 2 && f[3 * v] * mom.x + f[3 * v + 1] * mom.y + f[3 * v + 2] * mom.z < 0)
         mom = make_vec3(0, 0, 0);
-      Vec3 dv;
-      dv.x = omega * d[3 * v] + (omega - 1.0) * mom.x;
-      dv.y = omega * d[3 * v + 1] + (omega - 1.0) * mom.y;
-      dv.z = omega * d[3 * v + 2] + (omega - 1.0) * mom.z;
-      Vec3 xn = xo + dv;
-      if (bar) {
-        SdfSample sn;
-        const int r = safe_vertex_step(S[v], xo, dv, far, sn);
-        if (r == kStepFar) {
-          // Carry the lower bound; the barrier is exactly zero out there.
-          xn = xo + dv;
-          S[v] = sn;
-          xp[3 * v] = xo.x;
-          xp[3 * v + 1] = xo.y;
-          xp[3 * v + 2] = xo.z;
-          xc[3 * v] = xn.x;
-          xc[3 * v + 1] = xn.y;
-          xc[3 * v + 2] = xn.z;
-          continue;
-        }
-        if (r == kStepRejected) ++rejected;
-        xn = xo + dv;
-        S[v] = sn;
-      }
-      const bool stay = bar && xn.x == xo.x && xn.y == xo.y && xn.z == xo.z;
-      // A dropped step also drops the vertex's momentum.
-      xp[3 * v] = stay ? xn.x : xo.x;
-      xp[3 * v + 1] = stay ? xn.y : xo.y;
-      xp[3 * v + 2] = stay ? xn.z : xo.z;
-=======
-      const Vec3 xo_prev = {xp[3 * v], xp[3 * v + 1], xp[3 * v + 2]};
-      const Vec3 dv = {d[3 * v], d[3 * v + 1], d[3 * v + 2]};
-      SdfSample s = bar ? S[v] : SdfSample{};
       Vec3 xn;
-      if (chebyshev_safe_step(xo, xo_prev, dv, omega, bar, sdf_, smooth, s, xn)) ++rejected;
+      SdfSample s = bar ? S[v] : SdfSample{};
+      const int r = chebyshev_safe_step(xo, mom, {d[3 * v], d[3 * v + 1], d[3 * v + 2]}, omega, bar, sdf_, smooth,
+                                        far, s, xn);
       if (bar) S[v] = s;
-      // x_{k-1} becomes x_k (a dropped step thereby drops its momentum too).
-      xp[3 * v] = xo.x;
-      xp[3 * v + 1] = xo.y;
-      xp[3 * v + 2] = xo.z;
->>>>>>> wt-cuda
+      if (r == kStepRejected) ++rejected;
+      // x_{k-1} becomes x_k; a dropped step also drops the vertex's momentum.
+      const Vec3 xk = r == kStepRejected ? xn : xo;
+      xp[3 * v] = xk.x;
+      xp[3 * v + 1] = xk.y;
+      xp[3 * v + 2] = xk.z;
       xc[3 * v] = xn.x;
       xc[3 * v + 1] = xn.y;
       xc[3 * v + 2] = xn.z;
@@ -344,19 +258,13 @@ double Simulator::jacobi_sweeps(double* x, int sweeps, double alpha) {
   for (int k = 0; k < sweeps; ++k) {
 #pragma omp parallel for schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
-      const Vec3 fv = {f[3 * v], f[3 * v + 1], f[3 * v + 2]};
-      Vec3 dv;
-      Sym3 Dv = D[v];
-      if (!sym3_solve_spd(Dv, fv, dv)) {
-        Dv += sym3_identity(1e-6 * (std::fabs(Dv.xx) + std::fabs(Dv.yy) + std::fabs(Dv.zz)) + 1e-12);
-        if (!sym3_solve_spd(Dv, fv, dv)) dv = make_vec3(0, 0, 0);
-      }
-      dv = alpha * dv;
+      const Vec3 dv = jacobi_direction(D[v], {f[3 * v], f[3 * v + 1], f[3 * v + 2]}, alpha);
       const Vec3 xo = {x[3 * v], x[3 * v + 1], x[3 * v + 2]};
-      if (bar) safe_vertex_step(S[v], xo, dv, 0.0, Sn[v]);
-      xn[3 * v] = xo.x + dv.x;
-      xn[3 * v + 1] = xo.y + dv.y;
-      xn[3 * v + 2] = xo.z + dv.z;
+      Vec3 xv = xo + dv;
+      if (bar) barrier_safe_step(sdf_, params_.barrier_smooth, S[v], xo, dv, 0.0, xv, Sn[v]);
+      xn[3 * v] = xv.x;
+      xn[3 * v + 1] = xv.y;
+      xn[3 * v + 2] = xv.z;
     }
     std::vector<double> fn(n3);
     std::vector<Sym3> Dn(n_);
@@ -489,14 +397,16 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
     auto trial = [&](double t) {
 #pragma omp parallel for schedule(static) num_threads(threads_)
       for (int v = 0; v < n_; ++v) {
-        Vec3 dv = make_vec3(t * dx[3 * v], t * dx[3 * v + 1], t * dx[3 * v + 2]);
+        const Vec3 xo = make_vec3(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
+        const Vec3 dv = make_vec3(t * dx[3 * v], t * dx[3 * v + 1], t * dx[3 * v + 2]);
+        Vec3 xv = xo + dv;
         if (bar) {
           SdfSample sn;
-          safe_vertex_step(S0[v], make_vec3(x[3 * v], x[3 * v + 1], x[3 * v + 2]), dv, 0.0, sn);
+          barrier_safe_step(sdf_, params_.barrier_smooth, S0[v], xo, dv, 0.0, xv, sn);
         }
-        xt[3 * v] = x[3 * v] + dv.x;
-        xt[3 * v + 1] = x[3 * v + 1] + dv.y;
-        xt[3 * v + 2] = x[3 * v + 2] + dv.z;
+        xt[3 * v] = xv.x;
+        xt[3 * v + 1] = xv.y;
+        xt[3 * v + 2] = xv.z;
       }
     };
     double t = 1.0;

@@ -13,6 +13,7 @@
 
 #include "sim/simulator.hpp"
 #include "sim_gpu.hpp"
+#include "sim_report.hpp"
 #endif
 
 namespace py = pybind11;
@@ -46,35 +47,9 @@ void require_outside(const SimGpu& g, const double* x) {
                    " mm): the barrier is undefined there; call project_outside first");
 }
 
-py::dict terms_dict(const EnergyTerms& t) {
-  py::dict d;
-  d["stretch"] = t.stretch;
-  d["sewing"] = t.sewing;
-  d["bending"] = t.bending;
-  d["gravity"] = t.gravity;
-  d["sticking"] = t.sticking;
-  d["barrier"] = t.barrier;
-  return d;
-}
-
-// The keys of Simulator.solve's report (sim.cpp), plus the device.
+// The keys of Simulator.solve's report (sim_report.hpp), plus the device.
 py::dict report_dict(const SolveReport& r, const SimGpu& g) {
-  py::dict d;
-  d["iterations"] = r.iterations;
-  d["seconds"] = r.seconds;
-  d["residual"] = r.residual;
-  d["energy"] = r.energy;
-  d["converged"] = r.converged;
-  d["cancelled"] = r.cancelled;
-  d["restarts"] = r.restarts;
-  d["projections"] = r.projections;
-  d["rejected_steps"] = r.rejected_steps;
-  d["final_rho"] = r.final_rho;
-  d["final_alpha"] = r.final_alpha;
-  d["message"] = r.message;
-  d["history_iteration"] = r.hist_iter;
-  d["history_seconds"] = r.hist_seconds;
-  d["history_residual"] = r.hist_residual;
+  py::dict d = seamfit::bindings::report_dict(r);
   d["device"] = g.device_name();
   return d;
 }

@@ -10,6 +10,7 @@
 
 #include "bindings.hpp"
 #include "sim/simulator.hpp"
+#include "sim_report.hpp"
 
 namespace py = pybind11;
 using seamfit::sim::EnergyTerms;
@@ -43,38 +44,6 @@ void require_outside(Simulator& s, const double* x) {
   if (v >= 0)
     throw SimError("vertex " + std::to_string(v) + " is inside the body (phi = " + std::to_string(phi * 1000.0) +
                    " mm): the barrier is undefined there; call project_outside first");
-}
-
-py::dict terms_dict(const EnergyTerms& t) {
-  py::dict d;
-  d["stretch"] = t.stretch;
-  d["sewing"] = t.sewing;
-  d["bending"] = t.bending;
-  d["gravity"] = t.gravity;
-  d["sticking"] = t.sticking;
-  d["barrier"] = t.barrier;
-  return d;
-}
-
-py::dict report_dict(const SolveReport& r) {
-  py::dict d;
-  d["iterations"] = r.iterations;
-  d["seconds"] = r.seconds;
-  d["residual"] = r.residual;
-  d["energy"] = r.energy;
-  d["converged"] = r.converged;
-  d["cancelled"] = r.cancelled;
-  d["restarts"] = r.restarts;
-  d["projections"] = r.projections;
-  d["rejected_steps"] = r.rejected_steps;
-  d["momentum_restarts"] = r.momentum_restarts;
-  d["final_rho"] = r.final_rho;
-  d["final_alpha"] = r.final_alpha;
-  d["message"] = r.message;
-  d["history_iteration"] = r.hist_iter;
-  d["history_seconds"] = r.hist_seconds;
-  d["history_residual"] = r.hist_residual;
-  return d;
 }
 
 template <class T>
@@ -136,7 +105,11 @@ void bind_sim(py::module_& m) {
       .def_readwrite("newton_smoothing", &SolveSettings::newton_smoothing,
                      "Newton: block-Jacobi sweeps after each Newton step (0: pure Newton)")
       .def_readwrite("momentum_restart", &SolveSettings::momentum_restart,
-                     "Chebyshev: drop momentum against the force: 0 never, 1 globally, 2 per vertex");
+                     "Chebyshev: drop momentum against the force: 0 never, 1 globally, 2 per vertex")
+      .def_readwrite("precond_refresh", &SolveSettings::precond_refresh,
+                     "Chebyshev (CPU): iterations between refreshes of the springs' Jacobi blocks")
+      .def_readwrite("far_bound", &SolveSettings::far_bound,
+                     "Chebyshev (CPU): bound, not sample, steps beyond the barrier's reach");
 
   py::class_<Simulator>(m, "Simulator", "Quasistatic garment simulator (Wang 2018, section 4) on the CPU.")
       .def(py::init([](DArr p, IArr tris, IArr sew, const SimParams& params) {

@@ -262,6 +262,8 @@ __global__ void __launch_bounds__(256) k_step(DevModel<R> m, const Ctrl* c, doub
       SdfSample s;
       if (m.bar) s = S[v];
       Vec3 xn;
+      // The GPU samples the field everywhere (far = 0; sampling is cheap here); the
+      // CPU bounds far steps unless SolveSettings::far_bound is off.
       if (sim::chebyshev_safe_step(xo, xo - load3(prev, v), d, c->omega, m.bar != 0, m.sdf, m.smooth != 0, 0.0, s,
                                    xn) == sim::kStepRejected)
         acc[1] = 1;

@@ -19,6 +19,11 @@ constexpr double kProjectFloor = 1e-9;
 constexpr double kFreeStep = 0.005;
 // A step may close at most this fraction of the gap along the SDF normal.
 constexpr double kStepGapFraction = 0.5;
+// Beyond the barrier's reach plus this margin (m), a step is bounded instead of
+// sampled (see barrier_safe_step's far).
+constexpr double kFarMargin = 0.002;
+
+SF_HD double far_field_distance(double barrier_distance) { return barrier_distance + kFarMargin; }
 
 // std::max semantics (a NaN first argument is returned), usable in kernels.
 SF_HD double step_max(double a, double b) { return a < b ? b : a; }

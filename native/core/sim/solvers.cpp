@@ -35,8 +35,6 @@ using Clock = std::chrono::steady_clock;
 
 // kProjectFloor, kFreeStep, kLipschitz and the safe step come from
 // sim/jacobi_step.hpp, shared with the GPU.
-// Iterations between refreshes of the springs' share of the Jacobi blocks.
-constexpr int kPrecondRefresh = 4;
 
 inline double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
@@ -74,7 +72,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   // (it changes slowly; computing it is a third of an iteration's cost).
   int since_refresh = 0;
   auto eval = [&](std::vector<double>& xx, bool known) -> double {
-    const bool reuse = known && since_refresh < kPrecondRefresh - 1;
+    const bool reuse = known && since_refresh < std::max(st.precond_refresh, 1) - 1;
     since_refresh = reuse ? since_refresh + 1 : 0;
     evaluate(xx.data(), f.data(), &et, D.data(), bar ? S.data() : nullptr, known && bar, reuse);
     return et.total();
@@ -94,7 +92,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   bool fresh_seq = false;        // the Chebyshev sequence restarts at the next step
   std::vector<double> upd_norm;  // |dx| during warm-up, for the rho estimate
   // Beyond this phi (a margin past the barrier's reach) vertices skip the SDF.
-  const double far = params_.barrier_distance + 0.002;
+  const double far = st.far_bound ? far_field_distance(params_.barrier_distance) : 0.0;
 
   int it = 0;
   for (;; ++it) {

@@ -81,6 +81,8 @@ class SimSettings:
     history_every: int = 10
     threads: int = 0                   # OpenMP threads, 0 = automatic
     momentum_restart: int = 0          # Chebyshev: 0 energy checks only, 1 global, 2 per-vertex gradient restart
+    precond_refresh: int = 4           # Chebyshev (CPU): refresh the springs' Jacobi blocks every N iterations
+    far_bound: bool = True             # Chebyshev (CPU): bound, not sample, steps beyond the barrier's reach
     device: str = "cpu"                # where solves run: "cpu" or "cuda" (Chebyshev only; docs/gpu.md)
     # Dressing stages (see Simulator.drape).
     sew_first: bool = True             # stage 1: close the seams with gravity off
@@ -336,6 +338,8 @@ class Simulator:
         st.progress_every = int(s.progress_every if st.method == 0 else 1)
         st.history_every = int(s.history_every)
         st.momentum_restart = int(s.momentum_restart)
+        st.precond_refresh = int(s.precond_refresh)
+        st.far_bound = bool(s.far_bound)
         st.newton_smoothing = int(smoothing)
         return st
 

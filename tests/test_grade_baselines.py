@@ -126,3 +126,26 @@ def test_unknown_method_is_refused_clearly(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--method" in err and "invalid choice" in err and "fixed-point" in err
     assert not (tmp_path / "x").exists()
+
+
+def test_fixed_point_update_is_still_at_the_target_and_undoes_a_stretch():
+    """No sim needed: a drape equal to the target leaves the pattern alone, and a drape
+    10 % larger than the target (same shape) shrinks every panel by 1/1.1."""
+    from seamfit.mesh import build_sewn_mesh
+    from seamfit.opt import Parametrization, Regularizers
+    from seamfit.opt.pattern_update import FixedPointUpdate
+
+    mesh = build_sewn_mesh(load_pattern(PATTERN), edge_length_cm=4)
+    param = Parametrization(mesh)
+    p = param.pattern(param.theta_bar)
+    rot = np.array([[0.6, 0.0], [0.0, 0.0], [0.8, 0.0]]) + np.array([[0.0, -0.8], [0.0, 0.0], [0.0, 0.6]])
+    target = p @ rot.T                      # the flat pattern turned into 3D, unstretched
+    bare = FixedPointUpdate(mesh, param, 100.0)
+    np.testing.assert_allclose(bare.target_pattern(p, target, target), p, atol=1e-7)
+    shrunk = bare.target_pattern(p, 1.1 * target, target)
+    for k in range(len(mesh.panel_names)):
+        idx = np.flatnonzero(mesh.vertex_panel == k)
+        c = p[idx].mean(axis=0)
+        np.testing.assert_allclose(shrunk[idx], c + (p[idx] - c) / 1.1, atol=1e-7)
+    regularized = FixedPointUpdate(mesh, param, 100.0, regs=Regularizers(param, 100.0, 1e6))
+    np.testing.assert_allclose(regularized.target_pattern(p, target, target), p, atol=1e-7)

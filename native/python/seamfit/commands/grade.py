@@ -26,12 +26,18 @@ Presets (strengths fix, cur, dis, smo, str, pos from the paper's Table 1):
   fitted          stretch garments worn under tension (bodysuit, leggings)
   skirt_shirring  gathered or shirred garments
   pants           trousers and jumpsuits
-See docs/method.md for the method and docs/cli.md for examples.
+Methods (--method; every result is scored with the same objective and report):
+  adjoint         the paper's Algorithm 1: adjoint gradient on the whole objective (default)
+  two-phase       baseline (paper Sec. 3): transfer the garment, then the same optimizer
+                  on the positional cost only (plus the boundary regularizers)
+  fixed-point     baseline (paper Sec. 8.1, after Bartle et al. 2016): drape, move each
+                  pattern triangle towards the transferred garment's, repeat
+See docs/method.md for the method, docs/grading.md for the baselines and docs/cli.md for examples.
 """
 
 
 def register(subparsers) -> None:
-    from ..opt.grade import GradeSettings
+    from ..opt.grade import METHODS, GradeSettings
     from ..opt.presets import PRESETS
     d = GradeSettings()
     p = subparsers.add_parser(
@@ -45,6 +51,9 @@ def register(subparsers) -> None:
     p.add_argument("--target-body", metavar="B1", type=Path, required=True,
                    help="body to grade to; must share the base body's mesh topology")
     p.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder (created if missing)")
+    p.add_argument("--method", choices=METHODS, default=d.method,
+                   help=f"search: {', '.join(METHODS)} (default {d.method}; the other two are baselines "
+                        "for comparison, see below)")
     p.add_argument("--preset", choices=sorted(PRESETS), default=d.preset, help=f"strength preset (default {d.preset})")
     for name in ("fix", "cur", "dis", "smo", "str", "pos"):
         p.add_argument(f"--{name}", type=float, default=None, metavar="DELTA",
@@ -92,7 +101,7 @@ def run(args) -> int:
     if overrides:
         from dataclasses import replace
         strengths = replace(strengths, **overrides)
-    settings = GradeSettings(preset=args.preset, strengths=strengths, edge_length_cm=args.edge_length,
+    settings = GradeSettings(preset=args.preset, strengths=strengths, method=args.method, edge_length_cm=args.edge_length,
                              sdf_spacing=args.sdf_spacing, inner_iterations=args.inner_iterations,
                              checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,
                              time_budget_s=args.time_budget)
@@ -138,7 +147,7 @@ def run(args) -> int:
     atomic_write_text(out / "report.json", json.dumps(report, indent=1, default=_jsonable) + "\n")
     if not args.quiet:
         r = report
-        print(f"objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} "
+        print(f"{r['method']}: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} "
               f"({100 * r['objective_reduction']:.1f} % lower) in {r['outer_iterations']} iterations, "
               f"{r['seconds_total']:.1f} s; max pattern change {r['max_displacement_mm']:.1f} mm", file=sys.stderr)
         if "accuracy" in r:

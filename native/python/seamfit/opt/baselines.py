@@ -1,0 +1,111 @@
+"""Baselines for comparison with Algorithm 1 (``GradeSettings.method``).
+
+two-phase (paper Section 3, Fig. 2): phase 1's garment is the transferred garment
+x-tilde (Eq. 15); phase 2 solves the inverse pattern design problem Sim(theta) = x-tilde
+(Eq. 3) with Algorithm 1's own optimizer on the positional cost alone (plus R^fix and
+R^cur), every other cost strength zero.
+
+fixed-point (paper Section 8.1, after Bartle et al. 2016): drape the pattern on the
+target body, move every triangle's pattern towards the shape that would drape onto
+x-tilde (``pattern_update``), and repeat while the update keeps shrinking. It treats the
+simulator as a black box: no gradient, no cost terms.
+
+Both start from the unchanged base pattern, as an inverse design method would; their
+results are scored with the same grading objective f as Algorithm 1's.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import SolveError
+from .costs import CostSet, Strengths
+from .descent import descend
+from .objective import Objective
+from .output import SearchOutcome, mismatch_mm
+from .pattern_update import FixedPointUpdate
+
+
+def two_phase(ctx) -> SearchOutcome:
+    """Phase 2 of the two-phase approach: Algorithm 1 on C^pos + R^fix + R^cur."""
+    s = ctx.strengths
+    if s.pos <= 0:
+        raise SolveError("the two-phase baseline minimizes the positional cost: its strength (pos) must be > 0")
+    phase2 = Strengths(fix=s.fix, cur=s.cur, pos=s.pos)
+    costs = CostSet(ctx.mesh, ctx.xbar, phase2, xtilde=ctx.xtilde)
+    objective = Objective(ctx.param, ctx.regs, costs, ctx.sim, ctx.adjoint)
+    start = ctx.start_from_base_pattern()
+    out = descend(ctx, objective, ctx.param.theta_bar, start.x)
+    f_start = out.checkpoints[0]["search_objective"]
+    f_end = out.checkpoints[-1]["search_objective"]
+    out.details = {"two_phase": {"strengths": {"fix": phase2.fix, "cur": phase2.cur, "pos": phase2.pos},
+                                 "phase2_objective_initial": f_start, "phase2_objective_final": f_end}}
+    return out
+
+
+def fixed_point(ctx) -> SearchOutcome:
+    """Bartle-style fixed-point iteration on the pattern, towards Sim(theta) = x-tilde."""
+    settings, param = ctx.settings, ctx.param
+    s = ctx.strengths
+    if s.pos <= 0:
+        raise SolveError("the fixed-point baseline weighs its pattern update with the positional strength "
+                         "(pos): it must be > 0")
+    update = FixedPointUpdate(ctx.mesh, param, s.pos, ctx.regs if settings.fixed_point_regularize else None)
+    t_loop = time.perf_counter()
+    start = ctx.start_from_base_pattern()
+    theta, x = param.theta_bar.copy(), start.x.copy()
+    m = mismatch_mm(x, ctx.xtilde)
+    f = ctx.objective.objective(x, theta)[0]
+    hist = {"iteration": [0], "objective": [f], "mismatch_mm": [m], "update_mm": [],
+            "seconds": [0.0]}
+    best = (m, theta.copy(), x.copy(), 0)
+    checkpoints = [{"iteration": 0, "objective": f, "search_objective": m}]
+    relax = settings.fixed_point_relaxation
+    previous_update = np.inf
+    converged, message, k = False, "iteration limit", 0
+    while k < settings.max_outer_iterations:
+        p_new = update.target_pattern(param.pattern(theta), x, ctx.xtilde)
+        theta_new = param.theta_of(p_new)
+        if not np.all(np.isfinite(theta_new)):
+            message = "the fixed-point update became non-finite; kept the best pattern so far"
+            break
+        u = 1000.0 * float(np.max(np.linalg.norm(theta_new - theta, axis=1)))
+        if u <= settings.fixed_point_tolerance_mm:
+            converged = True
+            message = f"the pattern update fell below {settings.fixed_point_tolerance_mm:g} mm"
+            break
+        if u >= previous_update:
+            message = (f"stagnated: the pattern update stopped shrinking ({previous_update:.3g} mm, then "
+                       f"{u:.3g} mm) with the garment {best[0]:.3g} mm RMS from x-tilde; the inverse "
+                       f"problem Sim(theta) = x-tilde may have no exact solution (paper Section 3)")
+            break
+        previous_update = u
+        theta = theta + relax * (theta_new - theta)
+        k += 1
+        res = ctx.exact(theta, x, "fixed point")
+        if not np.all(np.isfinite(res.x)):
+            message = "the drape of the updated pattern became non-finite; kept the best pattern so far"
+            break
+        x = res.x
+        m = mismatch_mm(x, ctx.xtilde)
+        f = ctx.objective.objective(x, theta)[0]
+        for key, v in (("iteration", k), ("objective", f), ("mismatch_mm", m), ("update_mm", u),
+                       ("seconds", time.perf_counter() - t_loop)):
+            hist[key].append(v)
+        checkpoints.append({"iteration": k, "objective": f, "search_objective": m})
+        ctx.tell(stage="optimize", iteration=k, objective=f, exact=True, mismatch_mm=m, update_mm=u)
+        if m < best[0]:
+            best = (m, theta.copy(), x.copy(), k)
+        if settings.time_budget_s and time.perf_counter() - ctx.t_start > settings.time_budget_s:
+            message = "time budget reached"
+            break
+    m_best, theta_best, x_best, k_best = best
+    return SearchOutcome(
+        theta=theta_best, x=x_best, theta_start=param.theta_bar.copy(), x_start=start.x.copy(),
+        iterations=k, iterations_done=k, converged=converged, message=message, checkpoints=checkpoints,
+        cost_evaluations=dict.fromkeys(ctx.costs.evaluations, 0), history=hist,
+        seconds_loop=time.perf_counter() - t_loop,
+        details={"fixed_point": {"mismatch_mm": hist["mismatch_mm"], "update_mm": hist["update_mm"],
+                                 "best_iteration": k_best, "best_mismatch_mm": m_best,
+                                 "relaxation": relax, "tolerance_mm": settings.fixed_point_tolerance_mm}})

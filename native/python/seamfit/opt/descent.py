@@ -1,0 +1,115 @@
+"""The outer loop of Algorithm 1, for any objective (the grading f, or the positional
+cost alone for the two-phase baseline):
+
+    loop:  theta <- theta - s P^-1 Grad(x, theta)          Eq. 18-19 (adjoint)
+           every M iterations an exact simulation; if the objective rose since the
+           last exact checkpoint: go back there, double S, halve s ("long-range
+           backtracking"); otherwise halve S (not below S_min) and grow s
+           else x <- S simulation iterations from the previous x (inexact)
+
+The result is always an exact checkpoint, so its objective is that of a converged
+drape, and it never ends higher than the checkpoint before it.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .output import SearchOutcome
+
+
+def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOutcome:
+    """Algorithm 1's loop on ``objective`` (an ``Objective``) from the exact drape x0 of
+    theta0. Checkpoints record both the searched objective and the grading f."""
+    settings = ctx.settings
+    regs, sim, param = ctx.regs, ctx.sim, ctx.param
+    hist: dict[str, list] = {"iteration": [], "objective": [], "seconds": [], "exact": [], "S": [], "step": []}
+    t_loop = time.perf_counter()
+    theta, x = np.array(theta0, dtype=float), np.array(x0, dtype=float)
+    f0, _ = objective.objective(x, theta)
+    ck_theta, ck_x, ck_f = theta.copy(), x.copy(), f0
+    same = objective is ctx.objective
+
+    def grading_f(xx, th, f_search):
+        return f_search if same else ctx.objective.objective(xx, th)[0]
+
+    checkpoints = [(0, f0, grading_f(x, theta, f0))]
+    S, s = settings.inner_iterations, settings.step
+    k = 0              # accepted outer iterations
+    work = 0           # outer iterations done, discarded ones included
+    backtracks, converged, message = 0, False, "iteration limit"
+
+    def record(f, exact_flag):
+        hist["iteration"].append(work)
+        hist["objective"].append(f)
+        hist["seconds"].append(time.perf_counter() - t_loop)
+        hist["exact"].append(exact_flag)
+        hist["S"].append(S)
+        hist["step"].append(s)
+
+    record(f0, True)
+    max_work = 4 * settings.max_outer_iterations
+    while k < settings.max_outer_iterations and work < max_work:
+        f_cur, g = objective.gradient(x, theta)
+        d = -regs.apply_preconditioner(g)
+        # The preconditioner fixes the direction's shape, not its scale: cap the move
+        # so an inexact state far from equilibrium cannot throw the pattern away.
+        # The trust radius shrinks and grows with s, so backtracking really shortens steps.
+        dmax = float(np.max(np.abs(d))) if d.size else 0.0
+        step = s if dmax == 0 else s * min(1.0, 1e-3 * settings.max_move_mm / dmax)
+        theta = theta + step * d
+        k += 1
+        work += 1
+        sim.set_pattern(param.pattern(theta))
+        at_checkpoint = (k % settings.checkpoint_every == 0) or k == settings.max_outer_iterations
+        if not at_checkpoint:
+            res = sim.solve(x, tolerance=1e-12, max_iterations=S)
+            x = res.x
+            record(f_cur, False)
+            ctx.tell(stage=label, iteration=k, objective=f_cur, exact=False)
+            if settings.time_budget_s and time.perf_counter() - ctx.t_start > settings.time_budget_s:
+                at_checkpoint = True
+            else:
+                continue
+        res = ctx.exact(theta, x, "checkpoint")
+        f, f_terms = objective.objective(res.x, theta)
+        sim_state = {"converged": res.converged, "residual": res.residual,
+                     "max_sewing_gap_mm": res.max_sewing_gap_mm, "min_phi_mm": res.min_phi_mm, "terms": f_terms}
+        if not (np.isfinite(f) and f <= ck_f):
+            # Long-range backtracking: back to the last exact state, simulate more
+            # accurately and take shorter steps.
+            backtracks += 1
+            k = (k - 1) // settings.checkpoint_every * settings.checkpoint_every
+            theta, x = ck_theta.copy(), ck_x.copy()
+            sim.set_pattern(param.pattern(theta))
+            S = min(2 * S, settings.max_inner_iterations)
+            s *= 0.5
+            record(f, True)
+            ctx.tell(stage=label, iteration=k, objective=f, exact=True, backtrack=True, state=sim_state)
+            if s < settings.min_step:
+                converged, message = True, "no further decrease at the smallest step"
+                break
+            continue
+        decrease = ck_f - f
+        ck_theta, ck_x, ck_f = theta.copy(), res.x.copy(), f
+        checkpoints.append((k, f, grading_f(res.x, theta, f)))
+        x = res.x
+        record(f, True)
+        ctx.tell(stage=label, iteration=k, objective=f, exact=True, state=sim_state)
+        S = max(S // 2, settings.min_inner_iterations)
+        s = min(s * settings.step_growth, settings.max_step)
+        if decrease <= settings.rel_tol * abs(f):
+            converged, message = True, "objective no longer falls"
+            break
+        if settings.time_budget_s and time.perf_counter() - ctx.t_start > settings.time_budget_s:
+            message = "time budget reached"
+            break
+
+    return SearchOutcome(
+        theta=ck_theta, x=ck_x, theta_start=np.array(theta0, dtype=float), x_start=np.array(x0, dtype=float),
+        iterations=k, iterations_done=work, backtracks=backtracks, converged=converged, message=message,
+        checkpoints=[{"iteration": i, "objective": float(fg), "search_objective": float(fs)}
+                     for i, fs, fg in checkpoints],
+        cost_evaluations=dict(objective.costs.evaluations), history=hist,
+        seconds_loop=time.perf_counter() - t_loop)

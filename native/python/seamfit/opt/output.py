@@ -1,0 +1,139 @@
+"""What every grading method shares after its search: the adjusted pattern (panels
+rotated back onto their grain, curves refitted), output checks, ease, the grading
+objective at start and end, and the report."""
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field, replace
+from typing import Optional
+
+import numpy as np
+
+from ..mesh import outline_from_uv
+from ..pattern import Pattern
+from ..pattern.checks import output_checks
+from ..pattern.refit import refit_pattern
+from .fit import ease_report
+
+
+@dataclass
+class SearchOutcome:
+    """What a method's search hands to ``finish``: its final pattern parameters and
+    exact drape, its start, and how it went."""
+    theta: np.ndarray                  # final boundary parameters (n_theta, 2) m
+    x: np.ndarray                      # exact drape of p(theta) on the target body
+    theta_start: np.ndarray            # where the search started
+    x_start: np.ndarray                # and that pattern's exact drape
+    iterations: int
+    iterations_done: int
+    converged: bool
+    message: str
+    checkpoints: list                  # accepted exact states: iteration, objective (grading f), search_objective
+    cost_evaluations: dict             # evaluations of each cost term by the search itself
+    history: dict
+    seconds_loop: float
+    backtracks: int = 0
+    initialization: Optional[dict] = None
+    details: dict = field(default_factory=dict)   # method-specific report entries
+
+
+@dataclass
+class GradeResult:
+    pattern: Pattern                   # the adjusted pattern (new object)
+    uv_cm: np.ndarray                  # adjusted pattern coordinates of every mesh vertex
+    x: np.ndarray                      # final drape on the target body (N, 3) m
+    xbar: np.ndarray                   # base drape on the base body
+    xtilde: np.ndarray                 # transferred garment
+    mesh: object
+    report: dict
+    history: dict = field(default_factory=dict)
+
+
+def remove_panel_rotations(mesh, uv_new_cm: np.ndarray) -> tuple[np.ndarray, dict]:
+    """Rotate each panel back onto the base's grain. A rigid motion of a flat panel
+    changes nothing in the sewn garment (rest lengths, flat bending rest state and
+    masses are invariant), so this keeps the grain line without changing the fit."""
+    out = uv_new_cm.copy()
+    angles = {}
+    for k, name in enumerate(mesh.panel_names):
+        idx = np.flatnonzero(np.asarray(mesh.vertex_panel) == k)
+        a = mesh.uv_cm[idx]
+        b = uv_new_cm[idx]
+        ca, cb = a.mean(axis=0), b.mean(axis=0)
+        A, B = a - ca, b - cb
+        # best rotation taking B onto A (2D Procrustes)
+        num = np.sum(B[:, 0] * A[:, 1] - B[:, 1] * A[:, 0])
+        den = np.sum(B[:, 0] * A[:, 0] + B[:, 1] * A[:, 1])
+        ang = float(np.arctan2(num, den))
+        c, s = np.cos(ang), np.sin(ang)
+        R = np.array([[c, -s], [s, c]])
+        out[idx] = B @ R.T + cb
+        angles[name] = float(np.degrees(-ang))
+    return out, angles
+
+
+def mismatch_mm(x, xtilde) -> float:
+    """RMS distance (mm) between a garment and the transferred garment x-tilde: how far
+    the inverse pattern design problem (Eq. 3) is from solved."""
+    d = np.linalg.norm(np.asarray(x, float) - np.asarray(xtilde, float), axis=1)
+    return float(1000.0 * np.sqrt(np.mean(d * d))) if len(d) else 0.0
+
+
+def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
+    """The adjusted pattern, checks and report of a finished search."""
+    settings, mesh, param, sim = ctx.settings, ctx.mesh, ctx.param, ctx.sim
+    f0, terms0 = ctx.objective.objective(out.x_start, out.theta_start)
+    f_final, terms_final = ctx.objective.objective(out.x, out.theta)
+
+    uv_raw = 100.0 * param.pattern(out.theta)
+    uv_new, rotations = remove_panel_rotations(mesh, uv_raw)
+    outlines = outline_from_uv(mesh, uv_new)
+    refit = refit_pattern(ctx.base_pattern, outlines)
+    checks = output_checks(ctx.base_pattern, refit.pattern)
+
+    ease_base = ease_report(ctx.base_body, ctx.xbar, mesh.triangles)
+    ease_result = ease_report(ctx.target_body, out.x, mesh.triangles)
+    gaps = sim.sewing_gaps(out.x)
+    phi = sim.phi(out.x)
+    seconds_total = time.perf_counter() - ctx.t_start
+    work = out.iterations_done
+    report = {
+        "method": method,
+        "objective_base_pattern": ctx.objective_base,
+        "objective_initial": f0,
+        "objective_final": f_final,
+        "objective_reduction": (f0 - f_final) / f0 if f0 > 0 else 0.0,
+        "terms_base_pattern": ctx.terms_base,
+        "terms_initial": terms0,
+        "terms_final": terms_final,
+        "mismatch_mm": {"initial": mismatch_mm(out.x_start, ctx.xtilde), "final": mismatch_mm(out.x, ctx.xtilde)},
+        "strengths": asdict(ctx.strengths),
+        "outer_iterations": out.iterations,
+        "checkpoints": out.checkpoints,
+        "cost_evaluations": dict(out.cost_evaluations),
+        "outer_iterations_done": work,
+        "backtracks": out.backtracks,
+        "converged": out.converged,
+        "message": out.message,
+        "seconds_total": seconds_total,
+        "seconds_precompute": seconds_total - out.seconds_loop,
+        "seconds_loop": out.seconds_loop,
+        "seconds_per_iteration": out.seconds_loop / max(work, 1),
+        "max_displacement_mm": checks.get("max_displacement_mm"),
+        "seam_mismatch_mm": {str(s_["index"]): s_["seam_mismatch_mm"] for s_ in checks.get("stitches", [])},
+        "checks": checks,
+        "refit": {"ok": refit.ok, "max_deviation_mm": refit.max_deviation_overall_mm,
+                  "failed": [list(map(str, f_)) for f_ in refit.failed], "notes": refit.notes},
+        "panel_rotation_removed_deg": rotations,
+        "ease_cm": {"base": ease_base, "result": ease_result},
+        "drape": {"max_sewing_gap_mm": float(gaps.max() * 1000) if len(gaps) else 0.0,
+                  "min_phi_mm": float(phi.min() * 1000)},
+        "base_drape": ctx.base_info,
+        "initialization": out.initialization or {"objective_history": [], "message": "not used by this method"},
+        "mesh": {"vertices": int(len(mesh.uv_cm)), "triangles": int(len(mesh.triangles)),
+                 "edge_length_cm": settings.edge_length_cm},
+        "settings": {k_: v for k_, v in asdict(replace(settings, strengths=None)).items()},
+        **out.details,
+    }
+    return GradeResult(pattern=refit.pattern, uv_cm=uv_new, x=out.x, xbar=ctx.xbar, xtilde=ctx.xtilde, mesh=mesh,
+                       report=report, history=out.history)

@@ -1,0 +1,150 @@
+"""What every grading method shares before its search: the sewn mesh, both bodies' SDFs,
+the base garment x-bar on the base body, the transferred garment x-tilde (Eq. 15), the
+parametrization, regularizers, the grading objective f with the preset strengths, and the
+simulator on the target body."""
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+
+from ..cache import content_key, load_arrays, save_arrays
+from ..errors import SolveError
+from ..mesh import build_sewn_mesh
+from ..pattern import Pattern, check_pattern
+from ..sim.model import Fabric, SimSettings, Simulator
+from .adjoint import AdjointSolver
+from .costs import CostSet, Strengths
+from .objective import Objective
+from .parametrization import Parametrization
+from .regularizers import Regularizers
+from .transfer import transfer_garment
+
+ProgressFn = Callable[[dict], Optional[bool]]
+
+
+def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, *, progress=None):
+    """x-bar, the base garment on the base body, cached on disk by content."""
+    from ..sim.dressing import initial_positions
+    key = content_key("base-drape-1", mesh.cache_key(), body.vertices, body.faces, float(sdf.spacing),
+                      asdict(fabric), asdict(settings))
+    hit = load_arrays("drape", key)
+    if hit is not None and hit["x"].shape == mesh.x0.shape:
+        return hit["x"], {"cached": True, "key": key, **{k: float(hit[k]) for k in ("residual", "seconds")}}
+    sim = Simulator(mesh, sdf, fabric, settings)
+    x0, _ = initial_positions(mesh, pattern, sdf, mode="auto")
+    res = sim.drape(x0, progress=progress)
+    if res.cancelled:
+        raise SolveError("cancelled while draping the base garment")
+    if not res.converged:
+        raise SolveError(f"the base garment did not settle on the base body: {res.message} "
+                         f"(residual {res.residual:.3g}); raise max_iterations or check the placement")
+    save_arrays("drape", key, {"x": res.x, "residual": np.float64(res.residual), "seconds": np.float64(res.seconds)})
+    return res.x, {"cached": False, "key": key, "residual": res.residual, "seconds": res.seconds,
+                   "iterations": res.iterations, "max_sewing_gap_mm": res.max_sewing_gap_mm,
+                   "min_phi_mm": res.min_phi_mm}
+
+
+@dataclass
+class GradeContext:
+    """Inputs and shared machinery of one grading run (built by ``prepare``)."""
+    base_pattern: Pattern
+    base_body: object
+    target_body: object
+    settings: object                  # GradeSettings
+    strengths: Strengths              # the preset's: every method is scored with these
+    mesh: object
+    base_sdf: object
+    target_sdf: object
+    xbar: np.ndarray
+    xtilde: np.ndarray
+    base_info: dict
+    param: Parametrization
+    regs: Regularizers
+    costs: CostSet                    # the grading objective's costs (preset strengths)
+    sim: Simulator                    # on the target body
+    adjoint: AdjointSolver
+    objective: Objective              # f with the preset strengths
+    exact_tolerance: float
+    progress: Optional[ProgressFn]
+    t_start: float
+    base_on_target: object = None     # exact drape of the unchanged pattern on the target
+    objective_base: Optional[float] = None
+    terms_base: Optional[dict] = None
+    extra: dict = field(default_factory=dict)
+
+    def tell(self, **info) -> None:
+        if self.progress is not None and self.progress(info) is False:
+            raise SolveError("cancelled")
+
+    def sim_progress(self, stage):
+        def cb(it, res):
+            return None if self.progress is None else self.progress({"stage": stage, "sim_iteration": it,
+                                                                      "residual": res})
+        return cb
+
+    def exact(self, theta, x_start, stage):
+        """A converged drape of p(theta) on the target body, warm-started at x_start."""
+        self.sim.set_pattern(self.param.pattern(theta))
+        res = self.sim.solve(x_start, tolerance=self.exact_tolerance, progress=self.sim_progress(stage))
+        if res.cancelled:
+            raise SolveError("cancelled")
+        return res
+
+    def start_from_base_pattern(self):
+        """The exact drape of the unchanged pattern on the target (computed once)."""
+        if self.base_on_target is None:
+            self.tell(stage="base pattern on target")
+            self.base_on_target = self.exact(self.param.theta_bar, self.xtilde, "base pattern on target")
+        return self.base_on_target
+
+
+def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: Fabric | None = None,
+            sim_settings: SimSettings | None = None, progress: ProgressFn | None = None) -> GradeContext:
+    """Mesh, SDFs, x-bar, x-tilde and the grading objective; with
+    ``settings.evaluate_base_pattern`` also the objective of the unchanged pattern on the target."""
+    from ..body import build_sdf
+
+    t_start = time.perf_counter()
+    fabric = fabric or Fabric()
+    sim_settings = sim_settings or SimSettings()
+    strengths = settings.resolved_strengths()
+
+    def tell(**info):
+        if progress is not None and progress(info) is False:
+            raise SolveError("cancelled")
+
+    check_pattern(base_pattern)
+    tell(stage="mesh")
+    mesh = build_sewn_mesh(base_pattern, edge_length_cm=settings.edge_length_cm)
+    tell(stage="sdf")
+    base_sdf = build_sdf(base_body, spacing=settings.sdf_spacing)
+    target_sdf = build_sdf(target_body, spacing=settings.sdf_spacing)
+
+    tell(stage="base drape")
+
+    def drape_progress(it, res):
+        return None if progress is None else progress({"stage": "base drape", "sim_iteration": it, "residual": res})
+
+    xbar, base_info = base_drape(mesh, base_pattern, base_body, base_sdf, fabric, sim_settings,
+                                 progress=drape_progress)
+    tell(stage="transfer")
+    xtilde = transfer_garment(xbar, base_body, target_body, settings.bandwidth)
+
+    param = Parametrization(mesh)
+    regs = Regularizers(param, strengths.fix, strengths.cur)
+    costs = CostSet(mesh, xbar, strengths, target_sdf=target_sdf, base_sdf=base_sdf, xtilde=xtilde)
+    sim = Simulator(mesh, target_sdf, fabric, sim_settings)
+    adjoint = AdjointSolver(sim)
+    ctx = GradeContext(
+        base_pattern=base_pattern, base_body=base_body, target_body=target_body, settings=settings,
+        strengths=strengths, mesh=mesh, base_sdf=base_sdf, target_sdf=target_sdf, xbar=xbar, xtilde=xtilde,
+        base_info=base_info, param=param, regs=regs, costs=costs, sim=sim, adjoint=adjoint,
+        objective=Objective(param, regs, costs, sim, adjoint),
+        exact_tolerance=settings.exact_tolerance or sim_settings.tolerance, progress=progress, t_start=t_start)
+    if settings.evaluate_base_pattern:
+        rb = ctx.start_from_base_pattern()
+        ctx.objective_base, ctx.terms_base = ctx.objective.objective(rb.x, param.theta_bar)
+    return ctx

@@ -1,7 +1,7 @@
 """Real sample garments dress their own bodies: seams closed, nothing inside the
 body, residual under the threshold. Coarse meshes (3 cm edges) and a 5 mm SDF
-around the garment keep the file quick; docs/simulator_results.md has the full
-resolution runs of every shared pattern."""
+around the garment keep the file quick; docs/dress_results.md has every shared
+pattern on its own body at the default resolution (tests/benchmarks/bench_dress.py)."""
 from __future__ import annotations
 
 from pathlib import Path

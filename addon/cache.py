@@ -2,7 +2,9 @@
 """Precomputation kept between runs, keyed by content hashes of the inputs.
 
 It lives in the add-on's Python state (never in the .blend): re-running after a change
-of strengths reuses the sewn mesh, the signed distance fields and the base drape;
+of strengths or of the grading method reuses the sewn mesh, the signed distance fields and
+the base drape (a grading result is keyed by every input, method included; each piece of
+precomputation only by the inputs it depends on);
 changing the target body reuses everything that belongs to the base.
 """
 from __future__ import annotations

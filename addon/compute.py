@@ -283,6 +283,7 @@ class RunInputs:
     strengths: dict = field(default_factory=dict)
     opt: dict = field(default_factory=dict)
     device: str = "auto"
+    method: str = "adjoint"     # seamfit.opt.grade's GradeSettings.method
 
 
 def stretch_ratio_per_vertex(uv_cm: np.ndarray, x: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -390,6 +391,7 @@ class GradeOutput:
     objective: float
     iterations: int
     converged: bool
+    method: str                 # seamfit's name of the grading method
     message: str
     fit: dict
     report: dict
@@ -430,18 +432,20 @@ def _grade_progress(job, max_outer: int):
 def run_grade(inp: RunInputs, job) -> GradeOutput:
     """seamfit.opt.grade on the captured inputs, cached by their content: the same inputs
     give the previous result at once. Within a run seamfit reuses its own caches of body
-    distance fields and base drapes, so changing strengths or the target skips those."""
+    distance fields and base drapes, so changing strengths, the method or the target skips those."""
     opt = seamfit_module("opt.grade")
     check_device(inp.device)
+    # The method is part of the result's key only: the distance fields and the base drape
+    # it starts from are seamfit's, keyed without it, so a new method reuses them.
     key = digest(inp.pattern_json, round(inp.edge_length_cm, 6), inp.base.key, inp.target.key,
-                 inp.strengths, inp.opt, inp.sim)
+                 inp.strengths, inp.opt, inp.sim, inp.method)
     from seamfit.errors import SolveError
 
     def make():
         pattern = pattern_from_json(inp.pattern_json)
         fabric, sim_settings = _sim_objects(inp.sim, inp.device)
         settings = opt.GradeSettings(
-            strengths=dict(inp.strengths), edge_length_cm=float(inp.edge_length_cm),
+            strengths=dict(inp.strengths), method=inp.method, edge_length_cm=float(inp.edge_length_cm),
             sdf_spacing=float(inp.sim.get("sdf_spacing_m", 0.0025)),
             inner_iterations=int(inp.opt["S"]), checkpoint_every=int(inp.opt["M"]),
             max_outer_iterations=int(inp.opt["iterations"]))
@@ -467,7 +471,7 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
     return GradeOutput(
         pattern_json=pattern_to_json(graded), base_pattern_json=inp.pattern_json, garment=g,
         objective=float(r["objective_final"]), iterations=int(r["outer_iterations"]),
-        converged=bool(r["converged"]), message=str(r["message"]),
+        converged=bool(r["converged"]), method=str(r.get("method", inp.method)), message=str(r["message"]),
         fit={k: float(v) for k, v in ease.items() if v is not None}, report=r, result=res,
         base_name=inp.base.name, target_name=inp.target.name, target_body=body_object(inp.target))
 

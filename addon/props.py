@@ -8,7 +8,7 @@ import numpy as np
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
 
-from . import compute, presets, scene_io
+from . import compute, methods, presets, scene_io
 
 
 class SEAMFIT_PG_panel_info(bpy.types.PropertyGroup):
@@ -47,6 +47,7 @@ class SEAMFIT_PG_pattern_info(bpy.types.PropertyGroup):
     fit: PointerProperty(type=SEAMFIT_PG_fit)
     objective: FloatProperty(name="Final objective")
     iterations: IntProperty(name="Iterations")
+    method: StringProperty(name="Method", description="The grading method that made this pattern")
 
 
 class SEAMFIT_PG_body_report(bpy.types.PropertyGroup):
@@ -123,6 +124,10 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     strength_preset: EnumProperty(name="Preset", items=presets.preset_items(), default=_DEFAULT_PRESET,
                                   update=_apply_preset,
                                   description="Strengths suited to a kind of garment (Wang 2018, Table 1)")
+    method: EnumProperty(
+        name="Method", items=methods.items(), default=methods.DEFAULT,
+        description="How the adjusted pattern is searched for (seamfit grade --method). The "
+                    "baselines are there for comparison; every result is scored with the same objective")
     strength_fix: _strength("Fix", "Keeps boundary vertices near the base pattern", _default[0])
     strength_cur: _strength("Curvature", "Keeps the shape of boundary curves", _default[1])
     strength_dis: _strength("Distance", "Keeps the looseness of the garment per vertex", _default[2])
@@ -196,5 +201,6 @@ def settings_dict(s: SEAMFIT_PG_settings) -> dict:
                 "mu": _exact(s.mu), "iterations": int(s.sim_iterations),
                 "sdf_spacing_m": _exact(s.sdf_spacing_mm) / 1000.0},
         "opt": {"S": int(s.steps_per_iteration), "M": int(s.exact_every), "iterations": int(s.iterations)},
+        "method": methods.to_seamfit(s.method),
         "device": s.device.lower(),
     }

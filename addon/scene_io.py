@@ -343,4 +343,5 @@ def build_graded(context, out, name: str, base_collection: str, body: str) -> bp
         _store_fit(coll, out.fit)
         coll.seamfit.objective = float(out.objective)
         coll.seamfit.iterations = int(out.iterations)
+        coll.seamfit.method = out.method
     return coll

@@ -15,7 +15,7 @@ from typing import Any, Callable
 
 import bpy
 
-from . import compute, jobs, props, scene_io
+from . import compute, jobs, methods, props, scene_io
 from .operators import capture_body
 
 
@@ -51,7 +51,7 @@ def _run_inputs(context, with_target: bool) -> compute.RunInputs:
         pattern_name=coll.name, pattern_json=compute.pattern_to_json(pattern),
         edge_length_cm=cfg["edge_length_cm"], base=capture_body(s.base_body, depsgraph),
         sim=cfg["sim"], target=capture_body(s.target_body, depsgraph) if with_target else None,
-        strengths=cfg["strengths"], opt=cfg["opt"], device=cfg["device"])
+        strengths=cfg["strengths"], opt=cfg["opt"], device=cfg["device"], method=cfg["method"])
 
 
 def mesh_task(context) -> Task:
@@ -91,8 +91,9 @@ def adjust_task(context) -> Task:
                                      base_collection=base_coll_name, body=inputs.target.name)
         _last["adjust"] = out
         state = "converged" if out.converged else f"stopped: {out.message}"
-        return (f"Graded {inputs.pattern_name} to {inputs.target.name} in {out.iterations} iterations "
-                f"({state}, objective {out.objective:.4g}); result in {coll.name!r}")
+        return (f"Graded {inputs.pattern_name} to {inputs.target.name} with {methods.label(out.method)} "
+                f"in {out.iterations} iterations ({state}, objective {out.objective:.4g}); "
+                f"result in {coll.name!r}")
     return Task(f"grade {inputs.pattern_name} to {inputs.target.name}",
                 lambda job: compute.run_grade(inputs, job), apply)
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import compute, jobs, scene_io
+from . import compute, jobs, methods, scene_io
 from .cache import CACHE
 
 
@@ -90,6 +90,7 @@ class SEAMFIT_PT_costs(_SeamfitPanel, bpy.types.Panel):
     def draw(self, context):
         s = context.scene.seamfit
         layout = self.layout
+        layout.prop(s, "method")
         layout.prop(s, "strength_preset")
         col = layout.column(align=True)
         for key in ("fix", "cur", "dis", "smo", "str", "pos"):
@@ -174,6 +175,9 @@ def _draw_results(layout):
     for c in results[-4:]:
         box = layout.box()
         box.label(text=c.name, icon="OUTLINER_COLLECTION")
+        if c.seamfit.role == "graded" and c.seamfit.method:
+            box.label(text=f"{methods.label(c.seamfit.method)}: objective {c.seamfit.objective:.4g} "
+                           f"in {c.seamfit.iterations} iterations")
         fit = c.seamfit.fit
         if fit.valid:
             parts = [f"{k.capitalize()} {getattr(fit, k):+.1f}" if getattr(fit, f"has_{k}") else f"{k.capitalize()} –"

@@ -8,9 +8,9 @@ Run it either way:
     blender --background --python scripts/batch_grade.py -- PATTERN --base-body B0 --target-body B1 --out DIR
     python scripts/batch_grade.py PATTERN --base-body B0 --target-body B1 --out DIR      (bpy module)
 
-The arguments are those of `seamfit grade`. PATTERN is a sewpat-1 or GarmentCode JSON file;
-B0 and B1 are body meshes (.obj or .ply, metres, Z up, facing -Y). DIR receives graded.blend
-(bodies, base pattern, adjusted pattern, draped garment) and seamfit grade's files
+The arguments are those of `seamfit grade`, --method included. PATTERN is a sewpat-1 or
+GarmentCode JSON file; B0 and B1 are body meshes (.obj or .ply, metres, Z up, facing -Y).
+DIR receives graded.blend (bodies, base pattern, adjusted pattern, draped garment) and seamfit grade's files
 (pattern.json, pattern.svg, garment.obj, report.json, and drape.png where matplotlib is
 installed). The seamfit extension must be installed in that Blender, or given with
 --addon-zip (then it is installed into a temporary folder, not into your Blender).
@@ -26,6 +26,8 @@ import tempfile
 from pathlib import Path
 
 IN_BLENDER = "bpy" in sys.modules or Path(sys.argv[0]).name.startswith("blender")
+# seamfit grade's --method choices (the extension is only importable once it is enabled).
+METHODS = ("adjoint", "two-phase", "fixed-point")
 
 
 def _argv() -> list[str]:
@@ -41,6 +43,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--base-body", metavar="B0", type=Path, required=True, help="body the base pattern fits")
     p.add_argument("--target-body", metavar="B1", type=Path, required=True, help="body to grade to")
     p.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder (created if missing)")
+    p.add_argument("--method", choices=METHODS, default=None,
+                   help="search: adjoint (Algorithm 1, the default) or a baseline for comparison, "
+                        "two-phase or fixed-point")
     p.add_argument("--preset", default=None, help="strength preset (dress, fitted, skirt_shirring, pants)")
     for key in ("fix", "cur", "dis", "smo", "str", "pos"):
         p.add_argument(f"--{key}", type=float, default=None, metavar="DELTA", help=f"override the {key} strength")
@@ -115,9 +120,11 @@ def _import_body(path: Path):
     return new[0]
 
 
-def _apply_settings(s, args) -> None:
+def _apply_settings(s, args, addon) -> None:
     """Scene settings from the arguments; unset ones keep the add-on's defaults, which are
     seamfit grade's defaults."""
+    if args.method is not None:
+        s.method = addon.methods.from_seamfit(args.method)
     if args.preset:
         try:
             s.strength_preset = args.preset
@@ -154,7 +161,7 @@ def main() -> int:
         bpy.ops.seamfit.import_pattern(filepath=str(args.pattern))
         s.base_body = _import_body(args.base_body)
         s.target_body = _import_body(args.target_body)
-        _apply_settings(s, args)
+        _apply_settings(s, args, addon)
         if args.drape:
             bpy.ops.seamfit.drape()
         bpy.ops.seamfit.adjust()
@@ -174,7 +181,7 @@ def main() -> int:
     for path in [*written, blend]:
         print(f"batch_grade: wrote {path}")
     r = result.report
-    print(f"batch_grade: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} in "
+    print(f"batch_grade: {r['method']}: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} in "
           f"{r['outer_iterations']} iterations ({r['message']})")
     return 0 if result.converged else 1
 

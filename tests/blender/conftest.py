@@ -69,10 +69,9 @@ else:
     def tmp_out(tmp_path) -> Path:
         return tmp_path
 
-    @pytest.fixture(scope="session")
-    def cli_grade(tmp_path_factory, installed):
-        """`seamfit grade` on the sample skirt (the settings of helpers.GRADE_ARGS), run by the
-        seamfit the extension installed; (pattern, report, output folder)."""
+    def _cli_grade(tmp_path_factory, *extra: str):
+        """`seamfit grade` on the sample skirt (the settings of helpers.GRADE_ARGS plus
+        ``extra``), run by the seamfit the extension installed; (pattern, report, output folder)."""
         import json
         import subprocess
         from helpers import BODY_BASE, BODY_TARGET, GRADE_ARGS, PENCIL, extension_site_packages
@@ -82,6 +81,16 @@ else:
                "SEAMFIT_CACHE_DIR": os.environ["SEAMFIT_CACHE_DIR"]}
         proc = subprocess.run([sys.executable, "-m", "seamfit", "grade", str(PENCIL), "--base-body", str(BODY_BASE),
                                "--target-body", str(BODY_TARGET), "--out", str(out), "--no-picture", "-q",
-                               *GRADE_ARGS], env=env, capture_output=True, text=True)
+                               *GRADE_ARGS, *extra], env=env, capture_output=True, text=True)
         assert proc.returncode in (0, 1), proc.stderr
         return load_pattern(out / "pattern.json"), json.loads((out / "report.json").read_text()), out
+
+    @pytest.fixture(scope="session")
+    def cli_grade(tmp_path_factory, installed):
+        """The command line's grading with the default method."""
+        return _cli_grade(tmp_path_factory)
+
+    @pytest.fixture(scope="session")
+    def cli_grade_two_phase(tmp_path_factory, installed):
+        """The command line's grading with the two-phase baseline."""
+        return _cli_grade(tmp_path_factory, "--method", "two-phase")

@@ -477,8 +477,8 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
 
 
 def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | None = None) -> list:
-    """The files `seamfit grade` writes (pattern.json, pattern.svg, garment.obj, drape.png,
-    report.json), from a grading run of the add-on, with the same seamfit writers."""
+    """The files `seamfit grade` writes (pattern.json, pattern.svg, garment.obj, pattern.png,
+    drape.png, report.json), from a grading run of the add-on, with the same seamfit writers."""
     import copy
     import json as _json
     from pathlib import Path
@@ -497,8 +497,13 @@ def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | 
     write_obj(out / "garment.obj", mesh, positions=res.x)
     written = [out / "pattern.json", out / "pattern.svg", out / "garment.obj"]
     if picture and importlib.util.find_spec("matplotlib") is not None:
-        # seamfit draws it with matplotlib, which Blender does not ship: only where it is installed.
+        # seamfit draws these with matplotlib, which Blender does not ship: only where it is installed.
+        from seamfit.pattern.nest_png import render_nest_png
         from seamfit.sim.render import render_drape
+        render_nest_png(out / "pattern.png", [base, graded],
+                        labels=[f"base ({g.base_name})", f"graded ({g.target_name})"],
+                        title=f"{base.garment_id or 'pattern'}: graded nest")
+        written.append(out / "pattern.png")
         tb = g.target_body
         render_drape(out / "drape.png", res.x, res.mesh.triangles, res.mesh.triangle_panel,
                      body_vertices=None if tb is None else tb.vertices,

@@ -11,7 +11,7 @@ Run it either way:
 The arguments are those of `seamfit grade`, --method included. PATTERN is a sewpat-1 or
 GarmentCode JSON file; B0 and B1 are body meshes (.obj or .ply, metres, Z up, facing -Y).
 DIR receives graded.blend (bodies, base pattern, adjusted pattern, draped garment) and seamfit grade's files
-(pattern.json, pattern.svg, garment.obj, report.json, and drape.png where matplotlib is
+(pattern.json, pattern.svg, garment.obj, report.json, and pattern.png and drape.png where matplotlib is
 installed). The seamfit extension must be installed in that Blender, or given with
 --addon-zip (then it is installed into a temporary folder, not into your Blender).
 Exit status: 0 done, 1 the optimization stopped at its budget (files still written),
@@ -57,7 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="exact simulation every M outer iterations")
     p.add_argument("--max-iterations", metavar="N", type=int, default=None, help="outer iteration budget")
     p.add_argument("--device", choices=["auto", "cpu", "cuda"], default=None)
-    p.add_argument("--no-picture", action="store_true", help="do not write drape.png")
+    p.add_argument("--no-picture", action="store_true", help="do not write pattern.png and drape.png")
     p.add_argument("--drape", action="store_true", help="also keep the base garment draped on the base body")
     p.add_argument("--addon-zip", type=Path, default=None,
                    help="install this seamfit extension zip into a temporary folder and use it")

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set up (see setup.sh) and run the main job on the sample files: grade the sample pencil
 # skirt from the base body (US size 6) to size 10. Writes into out/demo/grade the adjusted
-# pattern (pattern.json), the graded nest (pattern.svg), the drape on the new body
+# pattern (pattern.json), the graded nest (pattern.svg, pattern.png), the drape on the new body
 # (garment.obj, drape.png) and report.json, which also compares the result with the
 # pattern the drafting system made for size 10.
 set -euo pipefail
@@ -18,4 +18,4 @@ $sf grade "$pattern" \
     --target-body $samples/bodies/women_size10.obj \
     --truth $samples/patterns/gc_pencil_skirt/size10/pattern.json \
     --edge-length 3 --max-iterations 64 --out "$out/grade"
-echo "results in $out/grade: pattern.json pattern.svg garment.obj drape.png report.json"
+echo "results in $out/grade: pattern.json pattern.svg pattern.png garment.obj drape.png report.json"

@@ -35,7 +35,7 @@ def graded(tmp_path_factory):
 
 def test_writes_pattern_nest_drape_and_report(graded):
     out, rep = graded
-    for name in ("pattern.json", "pattern.svg", "garment.obj", "drape.png", "report.json"):
+    for name in ("pattern.json", "pattern.svg", "pattern.png", "garment.obj", "drape.png", "report.json"):
         assert (out / name).stat().st_size > 0, name
     for key in ("objective_initial", "objective_final", "terms_initial", "terms_final", "outer_iterations",
                 "seconds_total", "seconds_per_iteration", "seconds_precompute", "max_displacement_mm",

@@ -142,3 +142,23 @@ def test_svg_errors(tmp_path, bodice):
     with pytest.raises(PatternError, match="input pattern file"):
         write_svg(src, clone)
     assert src.read_text() == "{}"
+
+
+def test_nest_png_draws_every_pattern_in_its_colour(tmp_path, skirts):
+    import matplotlib.image as mpimg
+
+    from seamfit.pattern.nest_png import render_nest_png
+    from seamfit.pattern.svg import OVERLAY_COLORS
+    out = render_nest_png(tmp_path / "nest.png", skirts, labels=["size 06", "size 10", "apple"], title="nest")
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    img = mpimg.imread(out)[..., :3]
+    # the base's black outlines and both overlay colours are on the picture
+    for hex_color in ("#000000", OVERLAY_COLORS[0], OVERLAY_COLORS[1]):
+        rgb = np.array([int(hex_color[i:i + 2], 16) / 255 for i in (1, 3, 5)])
+        assert (np.abs(img - rgb).max(axis=2) < 0.08).sum() > 200, hex_color
+    # no temporary file left behind, and a bad outline names its panel
+    assert [p.name for p in tmp_path.iterdir()] == ["nest.png"]
+    bad = load_pattern(SAMPLES / "gc_pencil_skirt/size06/pattern.json")
+    bad.panels[0].outline_cm[0, 0] = np.nan
+    with pytest.raises(PatternError, match=bad.panels[0].name):
+        render_nest_png(tmp_path / "bad.png", [bad])

@@ -4,6 +4,7 @@ Writes, all new files in DIR (the input pattern is never touched):
   pattern.json   the adjusted pattern (sewpat-1, same panels, stitches and landmarks,
                  curves refitted to the moved boundary)
   pattern.svg    the graded nest: base pattern in black, adjusted pattern in colour
+  pattern.png    the same nest as a picture
   garment.obj    the final drape on the target body (vt = adjusted pattern, cm)
   drape.png      front, side and back views of that drape
   report.json    objectives and terms before/after, iterations, timings, checks, ease
@@ -74,7 +75,7 @@ def register(subparsers) -> None:
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto",
                    help="compute device (the optimizer runs on the CPU in this version; cuda fails "
                         "with a message when unavailable)")
-    p.add_argument("--no-picture", action="store_true", help="do not write drape.png")
+    p.add_argument("--no-picture", action="store_true", help="do not write drape.png and pattern.png")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
 
@@ -140,7 +141,11 @@ def run(args) -> int:
               labels=[f"base ({base_body.name})", f"graded ({target_body.name})"])
     write_obj(out / "garment.obj", _with_uv(result.mesh, result.uv_cm), positions=result.x)
     if not args.no_picture:
+        from ..pattern.nest_png import render_nest_png
         from ..sim.render import render_drape
+        render_nest_png(out / "pattern.png", [base_pattern, result.pattern],
+                        labels=[f"base ({base_body.name})", f"graded ({target_body.name})"],
+                        title=f"{base_pattern.garment_id or args.pattern.stem}: graded nest")
         render_drape(out / "drape.png", result.x, result.mesh.triangles, result.mesh.triangle_panel,
                      body_vertices=target_body.vertices, body_faces=target_body.faces,
                      title=f"{base_pattern.garment_id or args.pattern.stem} graded to {target_body.name}")
@@ -153,7 +158,8 @@ def run(args) -> int:
         if "accuracy" in r:
             print(f"landmark error vs truth: max {r['accuracy']['graded']['max_cm']:.2f} cm "
                   f"(unchanged base: {r['accuracy']['base_unchanged']['max_cm']:.2f} cm)", file=sys.stderr)
-        print(f"wrote {out}/pattern.json, pattern.svg, garment.obj, report.json", file=sys.stderr)
+        pics = "" if args.no_picture else ", pattern.png, drape.png"
+        print(f"wrote {out}/pattern.json, pattern.svg, garment.obj, report.json{pics}", file=sys.stderr)
     return 0 if report["converged"] else 1
 
 

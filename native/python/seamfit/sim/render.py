@@ -4,9 +4,12 @@ polygons sorted back to front (painter's algorithm). Enough for a README or a
 report; not a renderer."""
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
+
+from ..fileio import atomic_write_bytes
 
 _PANEL_COLOURS = np.array([
     [0.85, 0.33, 0.31], [0.30, 0.55, 0.80], [0.40, 0.70, 0.40], [0.90, 0.65, 0.25],
@@ -81,11 +84,10 @@ def render_front_grid(path, items, columns: int = 3, dpi: int = 90) -> Path:
         _draw_view(ax, x, np.asarray(tris, int), np.asarray(panel, int), bv, bf, *_VIEWS[0][1:])
         ax.set_title(title, fontsize=9)
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
     plt.close(fig)
-    return path
+    return atomic_write_bytes(Path(path), buf.getvalue())
 
 
 def render_drape(path, x: np.ndarray, triangles: np.ndarray, triangle_panel: np.ndarray | None = None,
@@ -105,8 +107,7 @@ def render_drape(path, x: np.ndarray, triangles: np.ndarray, triangle_panel: np.
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
     plt.close(fig)
-    return path
+    return atomic_write_bytes(Path(path), buf.getvalue())

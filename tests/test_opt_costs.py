@@ -322,3 +322,20 @@ def test_total_gradient_through_theta(mesh, param, garment):
     th = param.theta_bar * 1.03 + rng.normal(0, 1e-3, param.theta_bar.shape)
     g = param.adjoint(cs.evaluate(x, param.pattern(th))[3]) + regs.evaluate(th)[2]
     fd_check(f, g, th, rng)
+
+
+def test_fix_in_the_preconditioner_only(param):
+    # objective_fix=0: f holds R^cur alone (gradient checked), P keeps delta_fix I.
+    rng = np.random.default_rng(7)
+    full = Regularizers(param, delta_fix=100.0, delta_cur=1e6)
+    regs = Regularizers(param, delta_fix=100.0, delta_cur=1e6, objective_fix=0.0)
+    th = param.theta_bar + rng.normal(0, 0.005, param.theta_bar.shape)
+    v, terms, g = regs.evaluate(th)
+    assert terms["fix"] == 0.0
+    assert v == pytest.approx(full.evaluate(th)[1]["cur"], rel=1e-14)
+    fd_check(lambda t: regs.evaluate(t)[0], g, th, rng)
+    assert np.abs(regs.hessian().toarray() - full.hessian().toarray()).max() == 0.0
+    u = rng.normal(size=th.shape)
+    assert np.array_equal(regs.apply_preconditioner(u), full.apply_preconditioner(u))
+    with pytest.raises(ValueError, match="objective_fix"):
+        full.set_strengths(100.0, 1e6, objective_fix=0.0)

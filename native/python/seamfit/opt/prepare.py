@@ -134,7 +134,10 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     xtilde = transfer_garment(xbar, base_body, target_body, settings.bandwidth)
 
     param = Parametrization(mesh)
-    regs = Regularizers(param, strengths.fix, strengths.cur)
+    # R^fix shapes the preconditioner; in f it would pull the pattern back to the base
+    # (docs/grading.md, "R^fix in the preconditioner only").
+    regs = Regularizers(param, strengths.fix, strengths.cur,
+                        objective_fix=None if getattr(settings, "fix_in_objective", True) else 0.0)
     costs = CostSet(mesh, xbar, strengths, target_sdf=target_sdf, base_sdf=base_sdf, xtilde=xtilde)
     sim = Simulator(mesh, target_sdf, fabric, sim_settings)
     adjoint = AdjointSolver(sim)

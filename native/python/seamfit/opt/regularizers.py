@@ -17,9 +17,15 @@ class Regularizers:
     pbar_k - pbar_j (the outline neighbours of vertex i) to the current chord
     p_k - p_j; with it R is quadratic and its Hessian P is constant, which is also
     the preconditioner (prefactorized; needs delta_fix > 0).
+
+    ``objective_fix`` is the R^fix strength inside the objective when it differs from
+    the preconditioner's ``delta_fix`` (0: R^fix only keeps P positive definite and does
+    not pull the pattern back to the base; docs/grading.md says why that is the default
+    of a grading).
     """
 
-    def __init__(self, param, delta_fix: float, delta_cur: float, corner_weight: float = CORNER_WEIGHT):
+    def __init__(self, param, delta_fix: float, delta_cur: float, corner_weight: float = CORNER_WEIGHT, *,
+                 objective_fix: float | None = None):
         a = param.arrays
         self.param = param
         weight = np.where(a.corner[param.boundary_ids], float(corner_weight), 1.0)
@@ -31,11 +37,22 @@ class Regularizers:
             loops.append([int(i) for i in idx])
         self.weight = weight
         self._native = core().Regularizers(param.theta_bar, loops, weight)
-        self.set_strengths(delta_fix, delta_cur)
+        # P lives in its own instance when the objective's R^fix differs from P's.
+        self._precond = self._native
+        if objective_fix is not None and float(objective_fix) != float(delta_fix):
+            self._precond = core().Regularizers(param.theta_bar, loops, weight)
+        self.set_strengths(delta_fix, delta_cur, objective_fix=objective_fix)
 
-    def set_strengths(self, delta_fix: float, delta_cur: float) -> None:
+    def set_strengths(self, delta_fix: float, delta_cur: float, *, objective_fix: float | None = None) -> None:
+        """delta_fix and delta_cur shape P; the objective uses objective_fix (default
+        delta_fix, the paper's f) and delta_cur."""
         self.delta_fix, self.delta_cur = float(delta_fix), float(delta_cur)
-        self._native.set_strengths(self.delta_fix, self.delta_cur)
+        self.objective_fix = self.delta_fix if objective_fix is None else float(objective_fix)
+        if self._precond is self._native and self.objective_fix != self.delta_fix:
+            raise ValueError("build Regularizers with objective_fix to give the objective its own R^fix strength")
+        self._native.set_strengths(self.objective_fix, self.delta_cur)
+        if self._precond is not self._native:
+            self._precond.set_strengths(self.delta_fix, self.delta_cur)
 
     def evaluate(self, theta):
         """-> (value, {"fix", "cur"}, gradient (n_theta, 2))."""
@@ -44,11 +61,11 @@ class Regularizers:
 
     def apply_preconditioner(self, g) -> np.ndarray:
         """P^-1 g with P the (constant) Hessian of the regularizers."""
-        return self._native.apply_preconditioner(np.asarray(g, dtype=float).reshape(-1, 2))
+        return self._precond.apply_preconditioner(np.asarray(g, dtype=float).reshape(-1, 2))
 
     def hessian(self):
         """P as a scipy sparse matrix over theta flattened (x0, y0, x1, y1, ...)."""
         import scipy.sparse as sp
 
-        r, c, v, shape = self._native.hessian_triplets()
+        r, c, v, shape = self._precond.hessian_triplets()
         return sp.csr_matrix((v, (r, c)), shape=shape)

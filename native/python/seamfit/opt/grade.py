@@ -53,7 +53,7 @@ class GradeSettings:
     max_inner_iterations: int = 512
     checkpoint_every: int = 32         # M: exact simulation every M outer iterations
     max_outer_iterations: int = 256
-    fix_in_objective: bool = False     # R^fix in f (the paper) or only in the preconditioner P
+    fix_in_objective: bool = True      # R^fix in f (the paper) or only in the preconditioner P (docs/grading.md)
     step: float = 1.0                  # s: step along -P^-1 grad
     max_move_mm: float = 1.0           # trust region at s = 1: no boundary vertex moves more per iteration
     step_growth: float = 1.5

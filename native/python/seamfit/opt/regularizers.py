@@ -20,8 +20,8 @@ class Regularizers:
 
     ``objective_fix`` is the R^fix strength inside the objective when it differs from
     the preconditioner's ``delta_fix`` (0: R^fix only keeps P positive definite and does
-    not pull the pattern back to the base; docs/grading.md says why that is the default
-    of a grading).
+    not pull the pattern back to the base; an option of a grading, measured in
+    docs/grading.md).
     """
 
     def __init__(self, param, delta_fix: float, delta_cur: float, corner_weight: float = CORNER_WEIGHT, *,

@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import PatternError
 from ..fileio import atomic_write_bytes
 from .model import Pattern
-from .svg import BASE_COLOR, MARGIN_CM, OVERLAY_COLORS, _label_of, _layout, _Slot
+from .svg import MARGIN_CM, _layout, nest_slots
 
 
 def render_nest_png(path: str | Path, patterns: Pattern | Sequence[Pattern], *,
@@ -26,17 +26,7 @@ def render_nest_png(path: str | Path, patterns: Pattern | Sequence[Pattern], *,
     pats = [patterns] if isinstance(patterns, Pattern) else list(patterns)
     if not pats:
         raise PatternError(f"{path}: no pattern to draw")
-    names = [str(x) for x in labels] if labels is not None else [_label_of(p, k) for k, p in enumerate(pats)]
-    colors = [BASE_COLOR] + [OVERLAY_COLORS[(k - 1) % len(OVERLAY_COLORS)] for k in range(1, len(pats))]
-    slots: dict[str, _Slot] = {}
-    for k, p in enumerate(pats):
-        for panel in p.panels:
-            o = np.asarray(panel.outline_cm, float)
-            if o.ndim != 2 or len(o) < 2 or not np.all(np.isfinite(o)):
-                raise PatternError(f"{p.source_file or '<pattern>'}: panel {panel.name!r}: outline has too few "
-                                   "or non-finite points; cannot draw it")
-            slots.setdefault(panel.name, _Slot(panel.name)).add(k, panel)
-    order = list(slots.values())
+    names, colors, order = nest_slots(pats, labels)
     width, height = _layout(order, MARGIN_CM)
     # Same proportions as the sheet, capped so a large nest stays a reasonable picture.
     scale = min(px_per_cm, 2400.0 / max(width, height))

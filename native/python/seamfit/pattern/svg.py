@@ -190,6 +190,22 @@ def _draw_panel(g, slot: _Slot, panel: Panel, pattern: Pattern, color: str, base
                   data_stitch=si, data_side=tag)
 
 
+def nest_slots(pats: Sequence[Pattern], labels: Sequence[str] | None):
+    """Names and colours of the nested patterns (base black) and one slot per panel name,
+    every pattern's copy of that panel in it; refuses outlines that cannot be drawn."""
+    names = [str(x) for x in labels] if labels is not None else [_label_of(p, k) for k, p in enumerate(pats)]
+    colors = [BASE_COLOR] + [OVERLAY_COLORS[(k - 1) % len(OVERLAY_COLORS)] for k in range(1, len(pats))]
+    slots: dict[str, _Slot] = {}
+    for k, p in enumerate(pats):
+        for panel in p.panels:
+            o = np.asarray(panel.outline_cm, dtype=float)
+            if o.ndim != 2 or len(o) < 2 or not np.all(np.isfinite(o)):
+                raise PatternError(f"{p.source_file or '<pattern>'}: panel {panel.name!r}: outline "
+                                   "has too few or non-finite points; cannot draw it")
+            slots.setdefault(panel.name, _Slot(panel.name)).add(k, panel)
+    return names, colors, list(slots.values())
+
+
 def write_svg(path: str | Path, patterns: Pattern | Sequence[Pattern], *,
               labels: Sequence[str] | None = None, title: str | None = None) -> Path:
     """Draw one pattern, or several overlaid (the first is the base), to an SVG file at
@@ -204,18 +220,7 @@ def write_svg(path: str | Path, patterns: Pattern | Sequence[Pattern], *,
         if p.source_file and Path(p.source_file).exists() and path.exists() \
                 and os.path.samefile(path, p.source_file):
             raise PatternError(f"{path}: is the input pattern file; the SVG is not written over it")
-    names = [str(x) for x in labels] if labels is not None else [_label_of(p, k) for k, p in enumerate(pats)]
-    colors = [BASE_COLOR] + [OVERLAY_COLORS[(k - 1) % len(OVERLAY_COLORS)] for k in range(1, len(pats))]
-
-    slots: dict[str, _Slot] = {}
-    for k, p in enumerate(pats):
-        for panel in p.panels:
-            o = np.asarray(panel.outline_cm, dtype=float)
-            if o.ndim != 2 or len(o) < 2 or not np.all(np.isfinite(o)):
-                raise PatternError(f"{p.source_file or '<pattern>'}: panel {panel.name!r}: outline "
-                                   "has too few or non-finite points; cannot draw it")
-            slots.setdefault(panel.name, _Slot(panel.name)).add(k, panel)
-    order = list(slots.values())
+    names, colors, order = nest_slots(pats, labels)
 
     header = MARGIN_CM + (NAME_FONT_CM * 1.5 if title else 0.0)
     legend_top = header

@@ -1,21 +1,22 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Presets of the six strengths (fix, cur, dis, smo, str, pos).
+"""Presets of the seven strengths (fix, cur, dis, smo, str, pos, seam).
 
 seamfit's own presets (``seamfit.opt.PRESETS``) are used when the installed seamfit has
-them; otherwise the same presets from Wang 2018, Table 1, under the same names.
+them; otherwise the same presets from Wang 2018, Table 1, under the same names, with
+seamfit's seam-length strength (not in the paper; docs/optimizer.md).
 """
 from __future__ import annotations
 
-STRENGTH_KEYS = ("fix", "cur", "dis", "smo", "str", "pos")
+STRENGTH_KEYS = ("fix", "cur", "dis", "smo", "str", "pos", "seam")
 DEFAULT = "dress"
 
 _PAPER = {
-    # name: (rule, (fix, cur, dis, smo, str, pos))
-    "fitted": ("Stretch garments worn under tension (bodysuit)", (100.0, 1e6, 0.01, 5e-5, 5.0, 100.0)),
-    "dress": ("Woven garments with ease (secretary dress)", (100.0, 1e6, 1.0, 0.05, 1.0, 100.0)),
+    # name: (rule, (fix, cur, dis, smo, str, pos, seam))
+    "fitted": ("Stretch garments worn under tension (bodysuit)", (100.0, 1e6, 0.01, 5e-5, 5.0, 100.0, 1e6)),
+    "dress": ("Woven garments with ease (secretary dress)", (100.0, 1e6, 1.0, 0.05, 1.0, 100.0, 1e6)),
     "skirt_shirring": ("Gathered or shirred garments with designed folds (Carmen skirt)",
-                       (100.0, 1e6, 0.01, 0.01, 1.0, 100.0)),
-    "pants": ("Trousers and jumpsuits (pants)", (100.0, 1e6, 1.0, 0.05, 1.0, 100.0)),
+                       (100.0, 1e6, 0.01, 0.01, 1.0, 100.0, 1e6)),
+    "pants": ("Trousers and jumpsuits (pants)", (100.0, 1e6, 1.0, 0.05, 1.0, 100.0, 1e6)),
 }
 
 
@@ -29,7 +30,7 @@ def _from_seamfit() -> dict | None:
         if getattr(p, "name", key) != key:      # an alias of another preset
             continue
         s = p.strengths
-        out[key] = (str(getattr(p, "rule", "")), tuple(float(getattr(s, k)) for k in STRENGTH_KEYS))
+        out[key] = (str(getattr(p, "rule", "")), tuple(float(getattr(s, k, 0.0)) for k in STRENGTH_KEYS))
     return out or None
 
 

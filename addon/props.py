@@ -134,6 +134,7 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     strength_smo: _strength("Smoothness", "Keeps folds and smoothness of the surface", _default[3])
     strength_str: _strength("Stretching", "Keeps the stretch ratio of every edge", _default[4])
     strength_pos: _strength("Positional", "Keeps every garment point where it sits on the body", _default[5])
+    strength_seam: _strength("Seam length", "Keeps the two sides of every seam equally long", _default[6])
 
     fabric_stretch: FloatProperty(
         name="Stretch stiffness (N/m)", default=_FABRIC["stretch_stiffness"], min=1.0, soft_max=1e5,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import compute, jobs, methods, scene_io
+from . import compute, jobs, methods, presets, scene_io
 from .cache import CACHE
 
 
@@ -93,7 +93,7 @@ class SEAMFIT_PT_costs(_SeamfitPanel, bpy.types.Panel):
         layout.prop(s, "method")
         layout.prop(s, "strength_preset")
         col = layout.column(align=True)
-        for key in ("fix", "cur", "dis", "smo", "str", "pos"):
+        for key in presets.STRENGTH_KEYS:
             col.prop(s, f"strength_{key}")
 
 

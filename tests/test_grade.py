@@ -21,16 +21,26 @@ def _sha(path):
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
+def _grade(out, *extra):
+    code = main(["grade", str(PATTERN), "--base-body", str(B0), "--target-body", str(B1), "--out", str(out),
+                 "--edge-length", "4", "--sdf-spacing", "0.005", "--max-iterations", "32",
+                 "--checkpoint-every", "16", "--smo", "0", "--truth", str(TRUTH), "-q", *extra])
+    assert code in (0, 1)
+    return json.loads((out / "report.json").read_text())
+
+
 @pytest.fixture(scope="module")
 def graded(tmp_path_factory):
     out = tmp_path_factory.mktemp("grade")
     before = _sha(PATTERN)
-    code = main(["grade", str(PATTERN), "--base-body", str(B0), "--target-body", str(B1), "--out", str(out),
-                 "--edge-length", "4", "--sdf-spacing", "0.005", "--max-iterations", "32",
-                 "--checkpoint-every", "16", "--smo", "0", "--truth", str(TRUTH), "-q"])
-    assert code in (0, 1)
+    rep = _grade(out)
     assert _sha(PATTERN) == before, "the input pattern must never be modified"
-    return out, json.loads((out / "report.json").read_text())
+    return out, rep
+
+
+@pytest.fixture(scope="module")
+def graded_without_seam_term(tmp_path_factory):
+    return _grade(tmp_path_factory.mktemp("grade-noseam"), "--seam", "0")
 
 
 def test_writes_pattern_nest_drape_and_report(graded):
@@ -82,6 +92,20 @@ def test_zero_strength_terms_are_never_evaluated(graded):
     assert rep["strengths"]["smo"] == 0
     assert rep["cost_evaluations"]["smo"] == 0
     assert rep["cost_evaluations"]["pos"] > 0
+
+
+def test_seam_term_keeps_stitch_sides_equal(graded, graded_without_seam_term):
+    """R^seam (on by default) holds every stitch within the 2 mm output check; without it
+    the sides drift apart by several mm (docs/grading.md, "Seam length")."""
+    _, rep = graded
+    off = graded_without_seam_term
+    assert rep["strengths"]["seam"] > 0 and rep["cost_evaluations"]["seam"] > 0
+    assert all(s["ok"] for s in rep["checks"]["stitches"]), rep["checks"]["messages"]
+    assert rep["checks"]["max_seam_mismatch_mm"] <= 2.0
+    assert off["strengths"]["seam"] == 0 and off["cost_evaluations"]["seam"] == 0
+    assert off["checks"]["max_seam_mismatch_mm"] > 3.0 * max(rep["checks"]["max_seam_mismatch_mm"], 1.0)
+    # no loss of landmark accuracy for it
+    assert rep["accuracy"]["graded"]["max_cm"] <= off["accuracy"]["graded"]["max_cm"] + 0.5
 
 
 def test_accuracy_against_the_drafted_size_is_reported(graded):

@@ -19,7 +19,7 @@ PATTERN = ROOT / "patterns/gc_pencil_skirt/size06/pattern.json"
 B0 = ROOT / "bodies/women_size06.obj"
 B1 = ROOT / "bodies/women_size10.obj"
 COARSE = dict(edge_length_cm=4, sdf_spacing=0.005, checkpoint_every=16)
-STRENGTHS = {"fix": 100, "cur": 1e6, "dis": 1, "smo": 0, "str": 1, "pos": 100}   # dress preset, smo off
+STRENGTHS = {"fix": 100, "cur": 1e6, "dis": 1, "smo": 0, "str": 1, "pos": 100, "seam": 1e6}   # dress preset, smo off
 
 
 @pytest.fixture(scope="module")

@@ -14,6 +14,7 @@
 #include "opt/cost_set.hpp"
 #include "opt/parametrization.hpp"
 #include "opt/regularizer_set.hpp"
+#include "opt/seam_length.hpp"
 #include "opt/transfer.hpp"
 
 namespace py = pybind11;
@@ -184,7 +185,67 @@ void bind_opt(py::module_& m) {
              }
              return out;
            }, py::arg("g"), "P^-1 g")
-      .def("hessian_triplets", [](const opt::Regularizers& r) { return triplets(r.hessian()); });
+      .def("hessian_triplets", [](const opt::Regularizers& r) { return triplets(r.hessian()); })
+      .def("set_extra_hessian", [](opt::Regularizers& r, const IArr& rows, const IArr& cols, const DArr& vals) {
+             check_shape(rows, -1, -1, "rows");
+             check_shape(cols, rows.shape(0), -1, "cols");
+             check_shape(vals, rows.shape(0), -1, "vals");
+             const int n = 2 * r.n_theta();
+             std::vector<Eigen::Triplet<double>> t;
+             for (py::ssize_t i = 0; i < rows.shape(0); ++i) {
+               const int a = rows.data()[i], b = cols.data()[i];
+               if (a < 0 || a >= n || b < 0 || b >= n) throw py::value_error("extra Hessian index out of range");
+               t.emplace_back(a, b, vals.data()[i]);
+             }
+             Eigen::SparseMatrix<double> H;
+             if (!t.empty()) {
+               H.resize(n, n);
+               H.setFromTriplets(t.begin(), t.end());
+             }
+             r.set_extra_hessian(H);
+           }, py::arg("rows"), py::arg("cols"), py::arg("vals"), "constant block added to P (empty: none)");
+
+  py::class_<opt::SeamLength>(m, "SeamLength", "R^seam over theta: matched stitch segments keep their base length ratio.")
+      .def(py::init([](const DArr& theta_bar, const IArr& segments) {
+             check_shape(theta_bar, -1, 2, "theta_bar");
+             check_shape(segments, -1, 4, "segments");
+             std::vector<Vec2> tb(as<Vec2>(theta_bar), as<Vec2>(theta_bar) + theta_bar.shape(0));
+             std::vector<opt::SeamSegment> seg(segments.shape(0));
+             for (size_t i = 0; i < seg.size(); ++i)
+               for (int c = 0; c < 4; ++c) seg[i][c] = segments.data()[4 * i + c];
+             try {
+               return std::make_unique<opt::SeamLength>(tb, seg);
+             } catch (const std::invalid_argument& e) {
+               throw py::value_error(e.what());
+             }
+           }),
+           py::arg("theta_bar"), py::arg("segments"))
+      .def("set_strength", [](opt::SeamLength& s, double d) {
+             try { s.set_strength(d); } catch (const std::invalid_argument& e) { throw py::value_error(e.what()); }
+           }, py::arg("delta_seam"))
+      .def_property_readonly("n_theta", &opt::SeamLength::n_theta)
+      .def_property_readonly("evaluations", &opt::SeamLength::evaluations)
+      .def_property_readonly("segments", [](const opt::SeamLength& s) {
+             py::array_t<int> out({py::ssize_t(s.segments().size()), py::ssize_t(4)});
+             for (size_t i = 0; i < s.segments().size(); ++i)
+               for (int c = 0; c < 4; ++c) out.mutable_data()[4 * i + c] = s.segments()[i][c];
+             return out;
+           })
+      .def_property_readonly("ratios", [](const opt::SeamLength& s) { return py::array(py::cast(s.ratios())); })
+      .def("evaluate", [](const opt::SeamLength& s, const DArr& theta) {
+             check_shape(theta, s.n_theta(), 2, "theta");
+             DArr g = new_array(s.n_theta(), 2);
+             const double v = s.evaluate(as<Vec2>(theta), as_mut<Vec2>(g));
+             return py::make_tuple(v, g);
+           }, py::arg("theta"), "-> (value, gradient)")
+      .def("residuals", [](const opt::SeamLength& s, const DArr& theta) {
+             check_shape(theta, s.n_theta(), 2, "theta");
+             return py::array(py::cast(s.residuals(as<Vec2>(theta))));
+           }, py::arg("theta"), "per segment r (m)")
+      .def("gauss_newton_triplets", [](const opt::SeamLength& s, const DArr& theta) {
+             check_shape(theta, s.n_theta(), 2, "theta");
+             return triplets(s.gauss_newton(as<Vec2>(theta)));
+           }, py::arg("theta"));
 
   py::class_<PyCostSet>(m, "CostSet", "Fitting costs (Eq. 11-16) on the CPU.")
       .def(py::init([](const IArr& triangles, const DArr& pbar, const DArr& xbar) {

@@ -53,6 +53,7 @@ def test_user_scene_props_defaults(scene):
     assert s.strength_preset == "dress"
     assert (s.strength_fix, s.strength_cur, s.strength_dis, s.strength_smo, s.strength_str,
             s.strength_pos) == pytest.approx((100.0, 1e6, 1.0, 0.05, 1.0, 100.0), rel=1e-6)
+    assert s.strength_seam == pytest.approx(1e6)
 
 
 def test_operators_that_change_the_scene_are_undoable(installed):

@@ -75,7 +75,15 @@ Eigen::SparseMatrix<double> Regularizers::hessian() const {
     }
   Eigen::SparseMatrix<double> H(2 * nt, 2 * nt);
   H.setFromTriplets(trip.begin(), trip.end());
+  if (extra_.size() != 0) H += extra_;
   return H;
+}
+
+void Regularizers::set_extra_hessian(const Eigen::SparseMatrix<double>& H) {
+  if (H.size() != 0 && (H.rows() != 2 * n_theta() || H.cols() != 2 * n_theta()))
+    throw std::invalid_argument("extra preconditioner block must be (2 n_theta, 2 n_theta)");
+  extra_ = H;
+  factored_ = false;
 }
 
 void Regularizers::factorize() {

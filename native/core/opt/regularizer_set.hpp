@@ -36,6 +36,9 @@ class Regularizers {
   // P^-1 g. The factorization is rebuilt when the strengths change.
   void apply_preconditioner(const Vec2* g, Vec2* out);
   Eigen::SparseMatrix<double> hessian() const;
+  // A constant matrix added to P (the seam term's Gauss-Newton Hessian at the base
+  // pattern, seamfit.opt.seam); an empty matrix removes it.
+  void set_extra_hessian(const Eigen::SparseMatrix<double>& H);
 
   int n_theta() const { return int(theta_bar_.size()); }
   // Curve elements (j, i, k) and their frames z_i and weights w_i.
@@ -48,6 +51,7 @@ class Regularizers {
   std::vector<Vec2> z_;
   std::vector<double> w_;
   double fix_ = 0, cur_ = 0;
+  Eigen::SparseMatrix<double> extra_;
   bool factored_ = false;
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> chol_;
 };

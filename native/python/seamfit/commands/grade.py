@@ -22,7 +22,8 @@ from pathlib import Path
 from ..errors import SeamfitError
 
 EPILOG = """\
-Presets (strengths fix, cur, dis, smo, str, pos from the paper's Table 1):
+Presets (strengths fix, cur, dis, smo, str, pos from the paper's Table 1; seam, the
+seam-length term, is ours, see docs/optimizer.md):
   dress           woven garments with ease: dresses, tops, skirts (default)
   fitted          stretch garments worn under tension (bodysuit, leggings)
   skirt_shirring  gathered or shirred garments
@@ -56,7 +57,7 @@ def register(subparsers) -> None:
                    help=f"search: {', '.join(METHODS)} (default {d.method}; the other two are baselines "
                         "for comparison, see below)")
     p.add_argument("--preset", choices=sorted(PRESETS), default=d.preset, help=f"strength preset (default {d.preset})")
-    for name in ("fix", "cur", "dis", "smo", "str", "pos"):
+    for name in ("fix", "cur", "dis", "smo", "str", "pos", "seam"):
         p.add_argument(f"--{name}", type=float, default=None, metavar="DELTA",
                        help=f"override the preset's {name} strength (0 skips the term)")
     p.add_argument("--edge-length", metavar="CM", type=float, default=d.edge_length_cm,
@@ -98,7 +99,7 @@ def run(args) -> int:
     if out.exists() and not out.is_dir():
         raise SeamfitError(f"{out}: exists and is not a folder")
     strengths = preset(args.preset).strengths
-    overrides = {k: getattr(args, k) for k in ("fix", "cur", "dis", "smo", "str", "pos") if getattr(args, k) is not None}
+    overrides = {k: getattr(args, k) for k in ("fix", "cur", "dis", "smo", "str", "pos", "seam") if getattr(args, k) is not None}
     if overrides:
         from dataclasses import replace
         strengths = replace(strengths, **overrides)

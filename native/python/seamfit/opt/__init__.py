@@ -1,17 +1,19 @@
 """Pattern optimization building blocks (Wang 2018, Sections 5-7): the boundary
-parametrization, regularizers and preconditioner, fitting costs with gradients,
-deformation transfer, pattern initialization and strength presets. See
-docs/optimizer.md."""
+parametrization, regularizers and preconditioner, the seam-length term (ours), fitting
+costs with gradients, deformation transfer, pattern initialization and strength presets.
+See docs/optimizer.md."""
 from .costs import (POSITIONAL_WEIGHT_BOUNDARY, POSITIONAL_WEIGHT_INTERIOR, CostSet, Strengths,
                     positional_weights, sample_sdf)
 from .initialize import InitResult, initialize_pattern
 from .parametrization import Parametrization
 from .presets import PRESETS, Preset, preset
 from .regularizers import CORNER_WEIGHT, Regularizers
+from .seam import SeamLength, seam_segments
 from .transfer import DEFAULT_BANDWIDTH, transfer_garment, vertex_deformation
 
 __all__ = [
     "CORNER_WEIGHT", "CostSet", "DEFAULT_BANDWIDTH", "InitResult", "POSITIONAL_WEIGHT_BOUNDARY",
-    "POSITIONAL_WEIGHT_INTERIOR", "PRESETS", "Parametrization", "Preset", "Regularizers", "Strengths",
-    "initialize_pattern", "positional_weights", "preset", "sample_sdf", "transfer_garment", "vertex_deformation",
+    "POSITIONAL_WEIGHT_INTERIOR", "PRESETS", "Parametrization", "Preset", "Regularizers", "SeamLength",
+    "Strengths", "initialize_pattern", "positional_weights", "preset", "sample_sdf", "seam_segments",
+    "transfer_garment", "vertex_deformation",
 ]

@@ -104,7 +104,7 @@ def fixed_point(ctx) -> SearchOutcome:
     return SearchOutcome(
         theta=theta_best, x=x_best, theta_start=param.theta_bar.copy(), x_start=start.x.copy(),
         iterations=k, iterations_done=k, converged=converged, message=message, checkpoints=checkpoints,
-        cost_evaluations=dict.fromkeys(ctx.costs.evaluations, 0), history=hist,
+        cost_evaluations=dict.fromkeys(ctx.objective.evaluations, 0), history=hist,
         seconds_loop=time.perf_counter() - t_loop,
         details={"fixed_point": {"mismatch_mm": hist["mismatch_mm"], "update_mm": hist["update_mm"],
                                  "best_iteration": k_best, "best_mismatch_mm": m_best,

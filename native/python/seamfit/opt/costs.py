@@ -26,6 +26,7 @@ class Strengths:
     smo: float = 0.0
     str: float = 0.0
     pos: float = 0.0
+    seam: float = 0.0   # R^seam, seamfit.opt.seam (not in the paper)
 
     def __post_init__(self):
         for f in fields(self):

@@ -111,5 +111,5 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
         iterations=k, iterations_done=work, backtracks=backtracks, converged=converged, message=message,
         checkpoints=[{"iteration": i, "objective": float(fg), "search_objective": float(fs)}
                      for i, fs, fg in checkpoints],
-        cost_evaluations=dict(objective.costs.evaluations), history=hist,
+        cost_evaluations=dict(objective.evaluations), history=hist,
         seconds_loop=time.perf_counter() - t_loop)

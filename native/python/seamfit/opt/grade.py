@@ -42,7 +42,7 @@ __all__ = ["METHODS", "GradeResult", "GradeSettings", "ProgressFn", "base_drape"
 @dataclass
 class GradeSettings:
     """Controls of one grading run. Strength coefficients come from ``preset`` unless
-    ``strengths`` is given (Strengths or a dict with fix, cur, dis, smo, str, pos)."""
+    ``strengths`` is given (Strengths or a dict with fix, cur, dis, smo, str, pos, seam)."""
     preset: str = "dress"
     strengths: Optional[object] = None
     method: str = "adjoint"            # adjoint | two-phase | fixed-point
@@ -54,6 +54,7 @@ class GradeSettings:
     checkpoint_every: int = 32         # M: exact simulation every M outer iterations
     max_outer_iterations: int = 256
     fix_in_objective: bool = True      # R^fix in f (the paper) or only in the preconditioner P (docs/grading.md)
+    seam_in_preconditioner: bool = True   # add R^seam's Gauss-Newton Hessian at the base to P (docs/optimizer.md)
     step: float = 1.0                  # s: step along -P^-1 grad
     max_move_mm: float = 1.0           # trust region at s = 1: no boundary vertex moves more per iteration
     step_growth: float = 1.5
@@ -88,7 +89,7 @@ def algorithm1(ctx) -> SearchOutcome:
     """The paper's method: initialization (Section 7), then adjoint descent on f."""
     ctx.tell(stage="initialize")
     init = initialize_pattern(ctx.mesh, ctx.xbar, ctx.xtilde, ctx.strengths, param=ctx.param,
-                              regularizers=ctx.regs)
+                              regularizers=ctx.regs, seam=ctx.seam)
     ctx.tell(stage="initial drape")
     r0 = ctx.exact(init.theta, ctx.xtilde, "initial drape")
     out = descend(ctx, ctx.objective, init.theta, r0.x)

@@ -2,7 +2,7 @@
 
 With the garment held at the transferred shape x = xtilde, minimize
 
-    f(theta) = C^str(xtilde, p(theta)) + R^fix(theta) + R^cur(theta)
+    f(theta) = C^str(xtilde, p(theta)) + R^fix(theta) + R^cur(theta) [+ R^seam(theta)]
 
 by preconditioned gradient descent (P = Hessian of the regularizers) with a
 backtracking (Armijo) line search. No simulation is involved, so this takes seconds.
@@ -33,29 +33,34 @@ class InitResult:
 
 
 class _Objective:
-    def __init__(self, param, regs, costs, xtilde):
+    def __init__(self, param, regs, costs, xtilde, seam=None):
         self.param, self.regs, self.costs, self.x = param, regs, costs, xtilde
+        self.seam = seam if seam is not None and seam.active else None
 
     def __call__(self, theta):
         p = self.param.pattern(theta)
         c, terms, _, gp = self.costs.evaluate(self.x, p)
         r, rterms, gr = self.regs.evaluate(theta)
         g = self.param.adjoint(gp) + gr
+        if self.seam is not None:
+            rs, gs = self.seam.evaluate(theta)
+            r, g = r + rs, g + gs
         return c + r, {"str": terms["str"], "fix": rterms["fix"], "cur": rterms["cur"]}, g
 
 
 def initialize_pattern(mesh, xbar, xtilde, strengths, *, param: Parametrization | None = None,
-                       regularizers: Regularizers | None = None, theta0=None, max_iters: int = 500,
+                       regularizers: Regularizers | None = None, seam=None, theta0=None, max_iters: int = 500,
                        time_budget_s: float = 5.0, rtol: float = 1e-10) -> InitResult:
     """theta0 for the outer loop. ``strengths`` supplies str, fix and cur (other terms are
-    constant while x is fixed and are ignored). Stops after ``max_iters`` iterations,
+    constant while x is fixed and are ignored); ``seam`` (a SeamLength) adds R^seam so
+    theta0 already has matched stitch sides. Stops after ``max_iters`` iterations,
     ``time_budget_s`` seconds, or when an iteration lowers f by less than ``rtol * f``
     or no step along the preconditioned direction lowers f."""
     s = Strengths.from_any(strengths)
     param = param or Parametrization(mesh)
     regs = regularizers or Regularizers(param, s.fix, s.cur)
     costs = CostSet(mesh, xbar, Strengths(str=s.str))
-    obj = _Objective(param, regs, costs, np.ascontiguousarray(xtilde, dtype=float))
+    obj = _Objective(param, regs, costs, np.ascontiguousarray(xtilde, dtype=float), seam)
 
     t0 = time.perf_counter()
     theta = param.theta_bar.copy() if theta0 is None else np.array(theta0, dtype=float).reshape(-1, 2)

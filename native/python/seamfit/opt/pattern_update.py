@@ -95,7 +95,7 @@ class FixedPointUpdate:
             nb = param.n_theta
             self.B = sp.kron(sp.csr_matrix((np.ones(nb), (np.arange(nb), param.boundary_ids)), shape=(nb, n)),
                              I2, format="csr")
-            self.P = regs.hessian()
+            self.P = regs.hessian(extra=False)   # R^fix + R^cur, the terms regs.evaluate gives
             u = positional_weights(mesh) if positional_weight is None else np.asarray(positional_weight, float)
             self.u2 = np.repeat(u, 2)
             K2 = sp.diags(2.0 * self.delta * self.u2) + self.B.T @ self.P @ self.B

@@ -20,6 +20,7 @@ from .costs import CostSet, Strengths
 from .objective import Objective
 from .parametrization import Parametrization
 from .regularizers import Regularizers
+from .seam import SeamLength
 from .transfer import transfer_garment
 
 ProgressFn = Callable[[dict], Optional[bool]]
@@ -64,6 +65,7 @@ class GradeContext:
     param: Parametrization
     regs: Regularizers
     costs: CostSet                    # the grading objective's costs (preset strengths)
+    seam: SeamLength                  # R^seam (skipped when strengths.seam is 0)
     sim: Simulator                    # on the target body
     adjoint: AdjointSolver
     objective: Objective              # f with the preset strengths
@@ -138,14 +140,17 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     # (docs/grading.md, "R^fix in the preconditioner only").
     regs = Regularizers(param, strengths.fix, strengths.cur,
                         objective_fix=None if getattr(settings, "fix_in_objective", True) else 0.0)
+    seam = SeamLength(param, mesh, strengths.seam)
+    if seam.active and getattr(settings, "seam_in_preconditioner", True):
+        regs.add_to_preconditioner(seam.gauss_newton())
     costs = CostSet(mesh, xbar, strengths, target_sdf=target_sdf, base_sdf=base_sdf, xtilde=xtilde)
     sim = Simulator(mesh, target_sdf, fabric, sim_settings)
     adjoint = AdjointSolver(sim)
     ctx = GradeContext(
         base_pattern=base_pattern, base_body=base_body, target_body=target_body, settings=settings,
         strengths=strengths, mesh=mesh, base_sdf=base_sdf, target_sdf=target_sdf, xbar=xbar, xtilde=xtilde,
-        base_info=base_info, param=param, regs=regs, costs=costs, sim=sim, adjoint=adjoint,
-        objective=Objective(param, regs, costs, sim, adjoint),
+        base_info=base_info, param=param, regs=regs, costs=costs, seam=seam, sim=sim, adjoint=adjoint,
+        objective=Objective(param, regs, costs, sim, adjoint, seam),
         exact_tolerance=settings.exact_tolerance or sim_settings.tolerance, progress=progress, t_start=t_start)
     if settings.evaluate_base_pattern:
         rb = ctx.start_from_base_pattern()

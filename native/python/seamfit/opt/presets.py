@@ -9,12 +9,22 @@ dimensionless; see docs/optimizer.md), so for those two the coefficient is
 dimensionless and the "1/m^2" label does not apply. Every term is a plain sum over
 vertices, edges or hinges, as in the paper, so the balance between terms holds for
 meshes of similar resolution (the paper's 1-1.5 cm edges; ours default to 1.5 cm).
+
+seam, the seam-length term R^seam (seamfit.opt.seam), is not in the paper. It sums squared
+length differences in metres per matched seam segment, the same units as R^cur's squared
+second differences, so every preset gives it R^cur's 1e6 / m^2: a seam side that drifts
+1 mm from its partner costs about what a boundary that bends 1 mm out of its curve does.
+That holds both stitch sides within ~0.2 mm on the coarse test grading and within the
+2 mm output check on the benchmark (docs/grading.md, "Seam length").
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 from .costs import Strengths
+
+# delta_seam of every preset (see above).
+SEAM_STRENGTH = 1e6
 
 
 @dataclass(frozen=True)
@@ -28,26 +38,26 @@ class Preset:
 PRESETS = {
     "fitted": Preset(
         "fitted",
-        Strengths(fix=100, cur=1e6, dis=0.01, smo=5e-5, str=5, pos=100),
+        Strengths(fix=100, cur=1e6, dis=0.01, smo=5e-5, str=5, pos=100, seam=SEAM_STRENGTH),
         "stretch garments worn under tension (bodysuit, leggings, swimwear): keep the stretch ratios, "
         "ignore looseness and folds",
         "Bodysuit",
     ),
     "dress": Preset(
         "dress",
-        Strengths(fix=100, cur=1e6, dis=1, smo=0.05, str=1, pos=100),
+        Strengths(fix=100, cur=1e6, dis=1, smo=0.05, str=1, pos=100, seam=SEAM_STRENGTH),
         "woven garments with ease (dresses, tops, jackets): keep looseness and drape as well as stretch",
         "Secretary Dress",
     ),
     "skirt_shirring": Preset(
         "skirt_shirring",
-        Strengths(fix=100, cur=1e6, dis=0.01, smo=0.01, str=1, pos=100),
+        Strengths(fix=100, cur=1e6, dis=0.01, smo=0.01, str=1, pos=100, seam=SEAM_STRENGTH),
         "gathered or shirred garments whose designed folds matter more than their distance to the body",
         "Carmen Skirt",
     ),
     "pants": Preset(
         "pants",
-        Strengths(fix=100, cur=1e6, dis=1, smo=0.05, str=1, pos=100),
+        Strengths(fix=100, cur=1e6, dis=1, smo=0.05, str=1, pos=100, seam=SEAM_STRENGTH),
         "trousers and jumpsuits (legs and crotch): same balance as the dress, looseness per leg",
         "Pants, Alana Jumpsuit",
     ),

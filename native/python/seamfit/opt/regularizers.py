@@ -39,6 +39,7 @@ class Regularizers:
         self._native = core().Regularizers(param.theta_bar, loops, weight)
         # P lives in its own instance when the objective's R^fix differs from P's.
         self._precond = self._native
+        self._extra = None   # constant block added to P (add_to_preconditioner)
         if objective_fix is not None and float(objective_fix) != float(delta_fix):
             self._precond = core().Regularizers(param.theta_bar, loops, weight)
         self.set_strengths(delta_fix, delta_cur, objective_fix=objective_fix)
@@ -63,9 +64,24 @@ class Regularizers:
         """P^-1 g with P the (constant) Hessian of the regularizers."""
         return self._precond.apply_preconditioner(np.asarray(g, dtype=float).reshape(-1, 2))
 
-    def hessian(self):
-        """P as a scipy sparse matrix over theta flattened (x0, y0, x1, y1, ...)."""
+    def add_to_preconditioner(self, H) -> None:
+        """Add a constant sparse matrix over theta flattened to P (None: remove it).
+        Used for the Gauss-Newton Hessian of R^seam at the base pattern."""
+        self._extra = H
+        if H is None:
+            self._precond.set_extra_hessian(np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0))
+            return
+        coo = H.tocoo()
+        self._precond.set_extra_hessian(coo.row.astype(np.int32), coo.col.astype(np.int32), coo.data.astype(float))
+
+    def hessian(self, *, extra: bool = True):
+        """P as a scipy sparse matrix over theta flattened (x0, y0, x1, y1, ...); with
+        ``extra=False`` without the block of ``add_to_preconditioner`` (the Hessian of
+        R^fix + R^cur alone)."""
         import scipy.sparse as sp
 
         r, c, v, shape = self._precond.hessian_triplets()
-        return sp.csr_matrix((v, (r, c)), shape=shape)
+        P = sp.csr_matrix((v, (r, c)), shape=shape)
+        if not extra and self._extra is not None:
+            P = (P - self._extra).tocsr()
+        return P

@@ -13,7 +13,7 @@ from seamfit.body import build_sdf, load_body
 from seamfit.mesh import build_sewn_mesh
 from seamfit.pattern import load_pattern
 from seamfit.sim import Fabric, SimSettings, Simulator
-from seamfit.sim.multilevel import COARSENING, drape_coarse_to_fine, prolong
+from seamfit.sim.multilevel import COARSENING, coarse_mesh, drape_coarse_to_fine, drape_from_coarse, prolong
 
 ROOT = Path(__file__).resolve().parents[1] / "sample_files"
 
@@ -54,9 +54,9 @@ def test_circle_skirt_dresses_coarse_to_fine():
     mesh = build_sewn_mesh(pattern, 3.0)
     sdf = _sdf("size06", mesh.x0)
     sim = Simulator(mesh, sdf, Fabric(), SimSettings(max_seconds=60))
-    res = drape_coarse_to_fine(sim, pattern)
+    res = drape_from_coarse(sim, pattern, coarse_mesh(pattern, mesh))
     names = [s["stage"] for s in res.stages]
-    assert names[0] == "coarse sew" and "settle" in names
+    assert names[0] == "coarse sew" and "prolonged settle" in names
     assert "sew" not in names  # the prolonged drape is already sewn
     assert res.converged, res.message
     assert res.max_sewing_gap_mm <= 2.0 and res.min_phi_mm >= -1.0
@@ -78,3 +78,27 @@ def test_newton_never_returns_more_residual_than_it_started_with():
         assert res.residual <= r0 * (1 + 1e-9), res.message
         assert np.isclose(res.residual, sim.residual(res.x), rtol=1e-9)
         assert np.all(np.isfinite(res.x))
+
+
+def test_a_garment_that_settles_is_not_restarted():
+    pattern = _pattern("fs_bodice", "size06")
+    mesh = build_sewn_mesh(pattern, 3.0)
+    sdf = _sdf("size06", mesh.x0)
+    res = drape_coarse_to_fine(Simulator(mesh, sdf, Fabric(), SimSettings(max_seconds=60)), pattern)
+    assert res.converged, res.message
+    assert not any(s["stage"].startswith("coarse") for s in res.stages)
+
+
+def test_restart_never_hands_back_more_than_the_first_settle():
+    # A budget too small for anything to converge: the restart from the coarse
+    # mesh ends above the first settle, which is handed back.
+    pattern = _pattern("gc_circle_skirt", "size06")
+    mesh = build_sewn_mesh(pattern, 3.0)
+    sdf = _sdf("size06", mesh.x0)
+    sim = Simulator(mesh, sdf, Fabric(), SimSettings(max_iterations=400, chunk=200, polish_iterations=2))
+    res = drape_coarse_to_fine(sim, pattern)
+    assert not res.converged
+    first = next(s for s in res.stages if s["stage"] == "settle")
+    assert res.residual <= first["residual"] * (1 + 1e-9)
+    assert np.isclose(res.residual, sim.residual(res.x), rtol=1e-6)
+    assert any(s["stage"].startswith("coarse") for s in res.stages)

@@ -46,8 +46,8 @@ def register(subparsers) -> None:
                    help=f"iteration budget per stage (default {st.max_iterations} for chebyshev, "
                         f"{st.newton_max_iterations} for newton)")
     p.add_argument("--no-coarse-start", action="store_true",
-                   help="dress the mesh from the pattern's placement directly, without first draping the "
-                        "same pattern at twice the edge length (see docs/simulator.md)")
+                   help="no restart from a drape at twice the edge length when the settle stagnates "
+                        "(see docs/simulator.md)")
     p.add_argument("--no-polish", action="store_true",
                    help="chebyshev: no Newton polish when the settle stage stops above the tolerance")
     p.add_argument("--max-seconds", metavar="S", type=float, default=0.0,

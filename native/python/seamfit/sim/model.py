@@ -357,7 +357,7 @@ class Simulator:
         return self._result(x, [dict(rep, stage="solve")])
 
     def drape(self, x0=None, progress: Optional[Callable[[int, float], bool]] = None,
-              device: Optional[str] = None, sewn: bool = False) -> DrapeResult:
+              device: Optional[str] = None, sewn: bool = False, polish: Optional[bool] = None) -> DrapeResult:
         """Dress the garment: close the seams with gravity off, then settle under gravity.
 
         Stages, each reported in the result:
@@ -375,6 +375,7 @@ class Simulator:
         device: "cpu" or "cuda" (default settings.device).
         sewn: x0 is already a sewn garment on the body (a drape carried from a
             coarser mesh): no sew stage, whatever gaps interpolation left.
+        polish: overrides settings.polish for this call.
         """
         s = self.settings
         x = self._start(x0)
@@ -398,12 +399,21 @@ class Simulator:
         x, rep = self._staged(x, "settle", s.method, s.tolerance, None, relay, offset,
                               stagnation=s.method == "chebyshev", device=device)
         stages.append(rep)
-        if (s.method == "chebyshev" and s.polish and not rep["converged"] and not rep["cancelled"]
+        do_polish = s.polish if polish is None else polish
+        if (s.method == "chebyshev" and do_polish and not rep["converged"] and not rep["cancelled"]
                 and s.polish_iterations > 0):
             x, rep = self._staged(x, "polish", "newton", s.tolerance, s.polish_iterations, relay, offset,
                                   smoothing=s.polish_smoothing)
             stages.append(rep)
         return self._result(x, stages)
+
+    def polish(self, x, progress: Optional[Callable[[int, float], bool]] = None) -> DrapeResult:
+        """The drape's polish stage alone (Newton with block-Jacobi sweeps) from x."""
+        s = self.settings
+        x, rep = self._staged(self._start(x), "polish", "newton", s.tolerance, s.polish_iterations,
+                              (lambda it, res: True) if progress is None else progress, [0],
+                              smoothing=s.polish_smoothing)
+        return self._result(x, [rep])
 
     def _staged(self, x, stage, method, tolerance, max_iterations, relay, offset, gravity_scale=1.0,
                 done=None, stagnation=False, smoothing=0, device=None):

@@ -1,5 +1,6 @@
-"""Coarse-to-fine dressing: drape the same pattern on a coarser mesh first and
-carry that drape to the fine mesh through pattern coordinates.
+"""Coarse-to-fine dressing: where a garment does not settle on its mesh, drape
+the same pattern on a coarser mesh and carry that drape to the fine mesh
+through pattern coordinates.
 
 Block-Jacobi iterations remove the unbalanced force of short wavelengths fast
 and that of long ones slowly (their count grows with the number of edges across
@@ -70,44 +71,78 @@ def prolong(coarse, x_coarse: np.ndarray, fine) -> np.ndarray:
 COARSENING = 2.0
 
 
-def drape_coarse_to_fine(sim, pattern, mode: str = "auto", progress=None, device=None):
-    """Dress sim's garment (sim.mesh, built from `pattern`) starting from a
-    drape of the same pattern at COARSENING times the edge length.
-
-    The coarse drape runs with sim's fabric and settings from the usual start
-    positions (seamfit.sim.dressing.initial_positions with `mode`); its stages
-    are reported first, named "coarse sew", "coarse settle", "coarse polish".
-    Where the coarse mesh cannot be built (a panel too narrow for the longer
-    edge), the fine garment is dressed from its own start positions.
-    """
+def coarse_mesh(pattern, fine):
+    """The pattern meshed at COARSENING times fine's edge length, or None where
+    that cannot be built (a panel too narrow) or is no coarser."""
     from ..errors import PatternError
     from ..mesh import build_sewn_mesh
-    from .dressing import initial_positions
-    from .model import Simulator
 
-    fine = sim.mesh
     try:
         coarse = build_sewn_mesh(pattern, COARSENING * float(fine.edge_length_cm))
     except PatternError:
-        coarse = None
-    if coarse is None or coarse.n_vertices >= fine.n_vertices:
-        x0, _ = initial_positions(fine, pattern, sim.sdf, mode=mode)
-        return sim.drape(x0, progress=progress, device=device)
-    x0c, _ = initial_positions(coarse, pattern, sim.sdf, mode=mode)
-    csim = Simulator(coarse, sim.sdf, sim.fabric, sim.settings)
-    rc = csim.drape(x0c, progress=progress, device=device)
-    cstages = [dict(s, stage="coarse " + s["stage"], vertices=int(coarse.n_vertices),
-                    edge_length_cm=float(coarse.edge_length_cm)) for s in rc.stages]
-    x = prolong(coarse, rc.x, fine)
-    if rc.cancelled:
-        x, _ = sim.project_outside(x)
-        return sim._result(x, cstages)
-    done = rc.iterations
+        return None
+    return coarse if coarse.n_vertices < fine.n_vertices else None
+
+
+def drape_from_coarse(sim, pattern, coarse, mode: str = "auto", progress=None, device=None):
+    """Dress the coarse mesh of `pattern` with sim's fabric and settings (stages
+    "coarse sew", "coarse settle", "coarse polish"), prolong its drape to
+    sim.mesh and settle and polish it there ("prolonged settle", "polish")."""
+    from .dressing import initial_positions
+    from .model import Simulator
+
+    done = [0]
 
     def relay(it, res):
-        return True if progress is None else progress(done + it, res)
+        return True if progress is None else progress(done[0] + it, res)
 
+    x0c, _ = initial_positions(coarse, pattern, sim.sdf, mode=mode)
+    rc = Simulator(coarse, sim.sdf, sim.fabric, sim.settings).drape(x0c, progress=relay, device=device)
+    stages = [dict(s, stage="coarse " + s["stage"], vertices=int(coarse.n_vertices),
+                   edge_length_cm=float(coarse.edge_length_cm)) for s in rc.stages]
+    x = prolong(coarse, rc.x, sim.mesh)
+    if rc.cancelled:
+        return sim._result(sim.project_outside(x)[0], stages)
+    done[0] = rc.iterations
     # Gaps the interpolation leaves between coarse seam vertices are closed
     # under gravity; a sew stage (gravity off) would let the drape float.
     rf = sim.drape(x, progress=relay, device=device, sewn=True)
-    return sim._result(rf.x, cstages + rf.stages)
+    stages += [dict(s, stage="prolonged settle" if s["stage"] == "settle" else s["stage"]) for s in rf.stages]
+    return sim._result(rf.x, stages)
+
+
+def drape_coarse_to_fine(sim, pattern, mode: str = "auto", progress=None, device=None):
+    """Dress sim's garment (sim.mesh, built from `pattern`); where its settle
+    stagnates, start again from a drape at COARSENING times the edge length.
+
+    First the usual drape from the start positions
+    (seamfit.sim.dressing.initial_positions with `mode`) without the polish:
+    a garment that settles is done, at the cost it always had. Otherwise
+    drape_from_coarse. The result is never worse than the first settle: if the
+    restart ends with more residual, the first settle's state is handed back.
+    Where no coarse mesh can be built the first settle is polished as usual.
+    """
+    from .dressing import initial_positions
+
+    x0, _ = initial_positions(sim.mesh, pattern, sim.sdf, mode=mode)
+    direct = sim.drape(x0, progress=progress, device=device, polish=False)
+    if direct.converged or direct.cancelled or sim.settings.method != "chebyshev":
+        return direct
+    coarse = coarse_mesh(pattern, sim.mesh)
+    if coarse is None:
+        if not sim.settings.polish:
+            return direct
+        rp = sim.polish(direct.x, progress=progress)
+        return sim._result(rp.x, direct.stages + rp.stages)
+
+    def relay(it, res):
+        return True if progress is None else progress(direct.iterations + it, res)
+
+    rf = drape_from_coarse(sim, pattern, coarse, mode, relay, device)
+    stages = direct.stages + rf.stages
+    if not rf.converged and not rf.cancelled and direct.residual < rf.residual:
+        stages[-1] = dict(stages[-1], residual=direct.residual,
+                          message=stages[-1]["message"] + "; handed back the first settle's state "
+                          f"(relative residual {direct.residual:.3g})")
+        return sim._result(direct.x, stages)
+    return sim._result(rf.x, stages)

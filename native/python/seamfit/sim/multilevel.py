@@ -140,9 +140,21 @@ def drape_coarse_to_fine(sim, pattern, mode: str = "auto", progress=None, device
 
     rf = drape_from_coarse(sim, pattern, coarse, mode, relay, device)
     stages = direct.stages + rf.stages
-    if not rf.converged and not rf.cancelled and direct.residual < rf.residual:
-        stages[-1] = dict(stages[-1], residual=direct.residual,
-                          message=stages[-1]["message"] + "; handed back the first settle's state "
-                          f"(relative residual {direct.residual:.3g})")
-        return sim._result(direct.x, stages)
-    return sim._result(rf.x, stages)
+    if rf.converged or rf.cancelled:
+        return sim._result(rf.x, stages)
+    # Newton's path from a stagnated settle is erratic (docs/simulator.md): the
+    # first settle's state gets its own polish before the restart is given up.
+    if sim.settings.polish:
+        rp = sim.polish(direct.x, progress=relay)
+        stages += [dict(s, stage="polish of the first settle") for s in rp.stages]
+        other, label = rp, None
+    else:
+        other, label = direct, "the first settle's"
+    last = other if label is None else rf
+    best = other if (other.converged or other.residual < rf.residual) else rf
+    if best is not last:
+        whose = "the restart's" if best is rf else label
+        stages[-1] = dict(stages[-1], residual=best.residual, converged=best.converged,
+                          message=stages[-1]["message"] + f"; handed back {whose} state "
+                          f"(relative residual {best.residual:.3g})")
+    return sim._result(best.x, stages)

@@ -118,9 +118,11 @@ def drape_coarse_to_fine(sim, pattern, mode: str = "auto", progress=None, device
     First the usual drape from the start positions
     (seamfit.sim.dressing.initial_positions with `mode`) without the polish:
     a garment that settles is done, at the cost it always had. Otherwise
-    drape_from_coarse. The result is never worse than the first settle: if the
-    restart ends with more residual, the first settle's state is handed back.
-    Where no coarse mesh can be built the first settle is polished as usual.
+    drape_from_coarse; where that does not converge, the first settle is
+    polished too (stage "polish of the first settle") and the better state is
+    handed back (converged, else less residual), so the restart only adds
+    converged drapes. Where no coarse mesh can be built the first settle is
+    polished as usual.
     """
     from .dressing import initial_positions
 
@@ -145,7 +147,8 @@ def drape_coarse_to_fine(sim, pattern, mode: str = "auto", progress=None, device
     # Newton's path from a stagnated settle is erratic (docs/simulator.md): the
     # first settle's state gets its own polish before the restart is given up.
     if sim.settings.polish:
-        rp = sim.polish(direct.x, progress=relay)
+        before = direct.iterations + rf.iterations
+        rp = sim.polish(direct.x, progress=None if progress is None else lambda it, res: progress(before + it, res))
         stages += [dict(s, stage="polish of the first settle") for s in rp.stages]
         other, label = rp, None
     else:

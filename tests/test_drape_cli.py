@@ -47,17 +47,20 @@ def test_drape_writes_obj_report_and_picture(draped):
     assert png.exists() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # FreeSewing hints were wrapped around the body before sewing
     assert report["dressing"]["wrapped_panels"]
+    assert report["coarse_start"] is True
 
 
 def test_drape_progress_goes_to_stderr(tmp_path, capsys):
     rc = cli.main(["drape", str(PATTERN), str(BODY), "--out", str(tmp_path), "--edge-length", "3",
-                   "--sdf-spacing", "0.005", "--max-iterations", "300", "--no-polish", "--no-picture"])
+                   "--sdf-spacing", "0.005", "--max-iterations", "300", "--no-polish", "--no-picture",
+                   "--no-coarse-start"])
     err = capsys.readouterr().err
     assert "iteration" in err and "relative residual" in err
     assert rc == 1 and "NOT converged" in err  # 300 iterations are not enough, and it says so
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["converged"] is False and "not converged" in report["message"]
     assert not (tmp_path / "drape.png").exists()
+    assert [s["stage"] for s in report["stages"]] == ["sew", "settle"] and report["coarse_start"] is False
 
 
 def test_drape_rejects_bad_arguments(tmp_path, capsys):

@@ -70,9 +70,16 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   // known: S already holds the samples of xx (the update loop sampled them).
   // The springs' part of the preconditioner is refreshed every few iterations
   // (it changes slowly; computing it is a third of an iteration's cost).
+  // Stale blocks can be too soft for a vertex whose springs have turned or
+  // come out of compression since; its step then overshoots and comes back
+  // (measured: a circle skirt's flare locked in an exact 4-cycle, period of
+  // the refresh, every plain Jacobi step undone). So the economy holds only
+  // while the iteration descends: an energy rise suspends it until 16 good
+  // checkpoints in a row, like the step length.
+  bool economy = true;
   int since_refresh = 0;
   auto eval = [&](std::vector<double>& xx, bool known) -> double {
-    const bool reuse = known && since_refresh < std::max(st.precond_refresh, 1) - 1;
+    const bool reuse = economy && known && since_refresh < std::max(st.precond_refresh, 1) - 1;
     since_refresh = reuse ? since_refresh + 1 : 0;
     evaluate(xx.data(), f.data(), &et, D.data(), bar ? S.data() : nullptr, known && bar, reuse);
     return et.total();
@@ -220,6 +227,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
         if (auto_rho) rho = std::max(0.0, 1.0 - 2.0 * (1.0 - rho));
         else rho *= 0.9;
         if (rises >= 3) alpha = std::max(0.5 * alpha, 1e-3);
+        economy = false;
         good_checks = 0;
       } else {
         ck = xc;
@@ -228,8 +236,9 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
         // Still descending: widen the Chebyshev interval towards 1, and let a
         // step length cut by earlier rises grow back.
         if (auto_rho && k > warmup) rho = std::min(1.0 - 0.9 * (1.0 - rho), 0.99995);
-        if (++good_checks >= 16 && alpha < alpha0) {
+        if (++good_checks >= 16) {
           alpha = std::min(1.25 * alpha, alpha0);
+          economy = true;
           good_checks = 0;
         }
       }
@@ -296,10 +305,19 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
   bool exact_ok = true;     // the last exact-Hessian factorization was positive definite
   int last_exact_try = -1000;
   double shift = 0;  // Levenberg shift, relative to the mean diagonal
+  // The line search lowers the energy, not the residual: on a nearly flat
+  // energy (a free flare, folds) a run can end with more unbalanced force than
+  // it started with. The state of least residual is kept and handed back.
+  Eigen::VectorXd x_best = X;
+  double res_best = std::numeric_limits<double>::infinity();
   int it = 0;
   for (;; ++it) {
     const double res = residual(f.data());
     rep.residual = res;
+    if (res < res_best) {
+      res_best = res;
+      x_best = X;
+    }
     if (st.history_every > 0) {
       rep.hist_iter.push_back(it);
       rep.hist_seconds.push_back(seconds_since(t0));
@@ -445,6 +463,12 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
     }
     shift = t >= 0.999 * tmax ? shift * 0.1 : shift;
     if (shift < 1e-12) shift = 0;
+  }
+  if (!rep.converged && !rep.cancelled && res_best < rep.residual) {
+    X = x_best;
+    E = force(x, f.data(), &et);
+    rep.residual = residual(f.data());
+    rep.message += "; returned the best state (relative residual " + fmt(rep.residual) + ")";
   }
   rep.iterations = it;
   rep.energy = E;

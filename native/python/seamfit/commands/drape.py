@@ -45,6 +45,9 @@ def register(subparsers) -> None:
     p.add_argument("--max-iterations", metavar="N", type=int, default=None,
                    help=f"iteration budget per stage (default {st.max_iterations} for chebyshev, "
                         f"{st.newton_max_iterations} for newton)")
+    p.add_argument("--no-coarse-start", action="store_true",
+                   help="no restart from a drape at twice the edge length when the settle stagnates "
+                        "(see docs/simulator.md)")
     p.add_argument("--no-polish", action="store_true",
                    help="chebyshev: no Newton polish when the settle stage stops above the tolerance")
     p.add_argument("--max-seconds", metavar="S", type=float, default=0.0,
@@ -85,6 +88,7 @@ def run(args) -> int:
     from ..pattern import load_pattern
     from ..sim import Fabric, SimSettings, Simulator
     from ..sim.dressing import initial_positions
+    from ..sim.multilevel import drape_coarse_to_fine
 
     _positive("--edge-length", args.edge_length)
     _positive("--tolerance", args.tolerance)
@@ -130,7 +134,10 @@ def run(args) -> int:
             say(f"iteration {it:6d}  relative residual {res:.3e}")
         return True
 
-    result = sim.drape(x0, progress=progress)
+    if args.no_coarse_start:
+        result = sim.drape(x0, progress=progress)
+    else:
+        result = drape_coarse_to_fine(sim, pattern, mode=args.dress, progress=progress)
     obj = write_obj(out / "garment.obj", mesh, positions=result.x)
     report = {
         "pattern": str(args.pattern),
@@ -142,6 +149,7 @@ def run(args) -> int:
         "sewing_pairs": int(len(mesh.sewing_pairs)),
         "edge_length_cm": args.edge_length,
         "method": args.method,
+        "coarse_start": not args.no_coarse_start,
         "tolerance": args.tolerance,
         "setup_seconds": t_setup,
         **result.report(),

@@ -357,7 +357,7 @@ class Simulator:
         return self._result(x, [dict(rep, stage="solve")])
 
     def drape(self, x0=None, progress: Optional[Callable[[int, float], bool]] = None,
-              device: Optional[str] = None) -> DrapeResult:
+              device: Optional[str] = None, sewn: bool = False, polish: Optional[bool] = None) -> DrapeResult:
         """Dress the garment: close the seams with gravity off, then settle under gravity.
 
         Stages, each reported in the result:
@@ -373,6 +373,9 @@ class Simulator:
         iterations, counting over all stages; returning False cancels (reported
         in the result, never raised).
         device: "cpu" or "cuda" (default settings.device).
+        sewn: x0 is already a sewn garment on the body (a drape carried from a
+            coarser mesh): no sew stage, whatever gaps interpolation left.
+        polish: overrides settings.polish for this call.
         """
         s = self.settings
         x = self._start(x0)
@@ -382,9 +385,12 @@ class Simulator:
         def relay(it, res):
             return True if progress is None else progress(offset[0] + it, res)
 
-        if s.sew_first and self._core.n_sewing > 0:
-            def seams_closed(xx):
-                return float(np.max(self.sewing_gaps(xx))) * 1000.0 <= s.sew_stage_gap_mm
+        def seams_closed(xx):
+            return float(np.max(self.sewing_gaps(xx))) * 1000.0 <= s.sew_stage_gap_mm
+
+        # A start that is already sewn (a drape carried over from a coarser
+        # mesh) goes straight to the settle: gravity off would let it float.
+        if s.sew_first and self._core.n_sewing > 0 and not sewn and not seams_closed(x):
             x, rep = self._staged(x, "sew", s.method, s.sew_stage_tolerance, None, relay, offset,
                                   gravity_scale=0.0, done=seams_closed, device=device)
             stages.append(rep)
@@ -393,12 +399,21 @@ class Simulator:
         x, rep = self._staged(x, "settle", s.method, s.tolerance, None, relay, offset,
                               stagnation=s.method == "chebyshev", device=device)
         stages.append(rep)
-        if (s.method == "chebyshev" and s.polish and not rep["converged"] and not rep["cancelled"]
+        do_polish = s.polish if polish is None else polish
+        if (s.method == "chebyshev" and do_polish and not rep["converged"] and not rep["cancelled"]
                 and s.polish_iterations > 0):
             x, rep = self._staged(x, "polish", "newton", s.tolerance, s.polish_iterations, relay, offset,
                                   smoothing=s.polish_smoothing)
             stages.append(rep)
         return self._result(x, stages)
+
+    def polish(self, x, progress: Optional[Callable[[int, float], bool]] = None) -> DrapeResult:
+        """The drape's polish stage alone (Newton with block-Jacobi sweeps) from x."""
+        s = self.settings
+        x, rep = self._staged(self._start(x), "polish", "newton", s.tolerance, s.polish_iterations,
+                              (lambda it, res: True) if progress is None else progress, [0],
+                              smoothing=s.polish_smoothing)
+        return self._result(x, [rep])
 
     def _staged(self, x, stage, method, tolerance, max_iterations, relay, offset, gravity_scale=1.0,
                 done=None, stagnation=False, smoothing=0, device=None):
@@ -412,6 +427,9 @@ class Simulator:
         t_start = time.perf_counter()
         best = [math.inf]
         since_best = 0
+        # the chunk end of least residual: a stagnated Chebyshev run can stop
+        # mid-oscillation, far above where it has been
+        end_best = (math.inf, None)
         self._apply_params(gravity_scale=gravity_scale)
         try:
             total = 0
@@ -434,6 +452,8 @@ class Simulator:
                     merged["message"] = f"stopped: seams closed, relative residual {rep['residual']:.3g}"
                     break
                 if stagnation:
+                    if rep["residual"] < end_best[0]:
+                        end_best = (rep["residual"], x.copy())
                     # the residual oscillates under momentum: judge a chunk by its best value
                     chunk_best = min(list(rep["history_residual"]) + [rep["residual"]])
                     if chunk_best < 0.7 * best[0]:
@@ -442,7 +462,10 @@ class Simulator:
                     else:
                         since_best += 1
                         if since_best >= 2:
-                            merged["message"] = (f"stopped: relative residual stagnated at {rep['residual']:.3g} "
+                            if end_best[0] < rep["residual"]:
+                                x = end_best[1]
+                                merged["residual"] = end_best[0]
+                            merged["message"] = (f"stopped: relative residual stagnated at {merged['residual']:.3g} "
                                                  f"(> {tolerance:g}) after {total} iterations")
                             break
         finally:

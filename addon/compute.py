@@ -356,11 +356,11 @@ def base_drape(inp: RunInputs, job, span=(0.1, 0.9)):
 
     def make():
         simulator, settings = _simulator(mesh, sdf, inp.sim, inp.device)
-        # Start as `seamfit drape` does: hint placements are wrapped around the body first.
-        x0, _ = seamfit_module("sim.dressing").initial_positions(
-            mesh, pattern_from_json(inp.pattern_json), sdf, mode="auto")
-        res = simulator.drape(x0, progress=job.callback("draping on the base body", span=span,
-                                                        target=float(settings.tolerance)))
+        # As `seamfit drape` does: hint placements are wrapped around the body first, and
+        # a settle that stagnates restarts from a drape of a coarser mesh.
+        res = seamfit_module("sim.multilevel").drape_coarse_to_fine(
+            simulator, pattern_from_json(inp.pattern_json), mode="auto",
+            progress=job.callback("draping on the base body", span=span, target=float(settings.tolerance)))
         job.check()     # a cancelled drape is never cached
         if getattr(res, "cancelled", False):
             raise Cancelled()

@@ -28,15 +28,15 @@ ProgressFn = Callable[[dict], Optional[bool]]
 
 def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, *, progress=None):
     """x-bar, the base garment on the base body, cached on disk by content."""
-    from ..sim.dressing import initial_positions
-    key = content_key("base-drape-1", mesh.cache_key(), body.vertices, body.faces, float(sdf.spacing),
+    from ..sim.multilevel import drape_coarse_to_fine
+    key = content_key("base-drape-2", mesh.cache_key(), body.vertices, body.faces, float(sdf.spacing),
                       asdict(fabric), asdict(settings))
     hit = load_arrays("drape", key)
     if hit is not None and hit["x"].shape == mesh.x0.shape:
         return hit["x"], {"cached": True, "key": key, **{k: float(hit[k]) for k in ("residual", "seconds")}}
     sim = Simulator(mesh, sdf, fabric, settings)
-    x0, _ = initial_positions(mesh, pattern, sdf, mode="auto")
-    res = sim.drape(x0, progress=progress)
+    # As `seamfit drape` does: a settle that stagnates restarts from a coarser drape.
+    res = drape_coarse_to_fine(sim, pattern, mode="auto", progress=progress)
     if res.cancelled:
         raise SolveError("cancelled while draping the base garment")
     if not res.converged:

@@ -482,7 +482,7 @@ def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | 
     import copy
     import json as _json
     from pathlib import Path
-    from seamfit.fileio import atomic_write_text
+    from seamfit.fileio import atomic_write_text, json_default
     from seamfit.mesh import write_obj
     from seamfit.pattern import save_pattern, write_svg
     out = Path(out)
@@ -511,15 +511,9 @@ def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | 
                      title=f"{base.garment_id or 'pattern'} graded to {g.target_name}")
         written.append(out / "drape.png")
 
-    def jsonable(o):
-        if isinstance(o, np.generic):
-            return o.item()
-        if isinstance(o, np.ndarray):
-            return o.tolist()
-        return str(o)
     report = dict(g.report)
     if inputs is not None:
         report["inputs"] = dict(inputs)
-    atomic_write_text(out / "report.json", _json.dumps(report, indent=1, default=jsonable) + "\n")
+    atomic_write_text(out / "report.json", _json.dumps(report, indent=1, default=json_default) + "\n")
     written.append(out / "report.json")
     return written

@@ -116,22 +116,15 @@ def run_one(spec: dict, out: Path, threads: int, timeout: float | None) -> dict:
 
 def cmd_case(args) -> int:
     from accuracy_case import run_case
-    from seamfit.fileio import atomic_write_text
+    from seamfit.fileio import atomic_write_text, json_default
     spec = json.loads(Path(args.spec).read_text())
     res = run_case(Path(spec["data"]), spec["garment"], spec["body"], spec["base"], spec["methods"],
                    spec["grade"], save_dir=Path(args.result).parent, baseline_ease=spec["baseline_ease"])
     res["grade_settings"] = spec["grade"]
-    atomic_write_text(Path(args.result), json.dumps(res, indent=1, default=_jsonable) + "\n")
+    atomic_write_text(Path(args.result), json.dumps(res, indent=1, default=json_default) + "\n")
     return 0
 
 
-def _jsonable(o):
-    import numpy as np
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    return str(o)
 
 
 def machine() -> dict:

@@ -7,21 +7,12 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import (BODY_BASE, BODY_TARGET, GRADE_EDGE_CM, GRADE_EVERY, GRADE_OUTER, GRADE_SDF_M, PENCIL, REPO,
-                     addon, import_obj)
+from helpers import BODY_BASE, BODY_TARGET, PENCIL, REPO, addon
 
 
 @pytest.fixture()
-def setup(scene):
-    bpy.ops.seamfit.import_pattern(filepath=str(PENCIL))
-    s = scene.seamfit
-    s.base_body = import_obj(BODY_BASE, "women_size06")
-    s.target_body = import_obj(BODY_TARGET, "women_size10")
-    s.edge_length_cm = GRADE_EDGE_CM
-    s.sdf_spacing_mm = 1000 * GRADE_SDF_M
-    s.iterations = GRADE_OUTER
-    s.exact_every = GRADE_EVERY
-    return s
+def setup(grading_scene):
+    return grading_scene
 
 
 def _graded_pattern():

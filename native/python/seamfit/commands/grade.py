@@ -84,7 +84,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from ..body import load_body
     from ..device import resolve_device
-    from ..fileio import atomic_write_text
+    from ..fileio import atomic_write_text, json_default
     from ..mesh import write_obj
     from ..opt.grade import GradeSettings, grade
     from ..opt.presets import preset
@@ -150,7 +150,7 @@ def run(args) -> int:
         render_drape(out / "drape.png", result.x, result.mesh.triangles, result.mesh.triangle_panel,
                      body_vertices=target_body.vertices, body_faces=target_body.faces,
                      title=f"{base_pattern.garment_id or args.pattern.stem} graded to {target_body.name}")
-    atomic_write_text(out / "report.json", json.dumps(report, indent=1, default=_jsonable) + "\n")
+    atomic_write_text(out / "report.json", json.dumps(report, indent=1, default=json_default) + "\n")
     if not args.quiet:
         r = report
         print(f"{r['method']}: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} "
@@ -172,10 +172,3 @@ def _with_uv(mesh, uv_cm):
     return m
 
 
-def _jsonable(o):
-    import numpy as np
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    return str(o)

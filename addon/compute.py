@@ -221,12 +221,10 @@ def device_status() -> dict:
         return {"cuda": False, "why": "", "name": "", "error": str(exc)}
 
 
-def check_device(device: str) -> None:
-    """Fail at once, like the command line, when the device cannot be used."""
-    seamfit_module("device").resolve_device(device)
-    if device == "cuda":
-        raise AddonError("Device CUDA: the simulation and grading run on the CPU in this version of "
-                         "seamfit; set Device to Auto or CPU")
+def check_device(device: str, n_vertices: int = 0) -> str:
+    """The device simulations run on ("cpu" or "cuda") for a garment of n_vertices;
+    fails at once, like the command line, when CUDA is asked for and cannot be used."""
+    return seamfit_module("device").resolve_device(device, problem_size=int(n_vertices))
 
 
 # ---------------------------------------------------------------------------
@@ -330,19 +328,18 @@ def fabric_defaults() -> dict:
                 "bending_stiffness": 1.0e-5, "density": 0.2}
 
 
-def _sim_objects(sim_cfg: dict, device: str):
+def _sim_objects(sim_cfg: dict, device: str, n_vertices: int = 0):
     """seamfit's Fabric and SimSettings for the scene's simulation settings."""
     sim = seamfit_module("sim")
-    check_device(device)
     fabric = sim.Fabric(**{k: float(v) for k, v in sim_cfg.get("fabric", {}).items()})
-    opts = {"mu": float(sim_cfg.get("mu", 0.01))}
+    opts = {"mu": float(sim_cfg.get("mu", 0.01)), "device": check_device(device, n_vertices)}
     if sim_cfg.get("iterations"):
         opts["max_iterations"] = int(sim_cfg["iterations"])
     return fabric, sim.SimSettings(**opts)
 
 
 def _simulator(mesh, sdf, sim_cfg: dict, device: str):
-    fabric, settings = _sim_objects(sim_cfg, device)
+    fabric, settings = _sim_objects(sim_cfg, device, mesh.n_vertices)
     return seamfit_module("sim").Simulator(mesh, sdf, fabric, settings), settings
 
 
@@ -448,7 +445,7 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
             strengths=dict(inp.strengths), method=inp.method, edge_length_cm=float(inp.edge_length_cm),
             sdf_spacing=float(inp.sim.get("sdf_spacing_m", 0.0025)),
             inner_iterations=int(inp.opt["S"]), checkpoint_every=int(inp.opt["M"]),
-            max_outer_iterations=int(inp.opt["iterations"]))
+            max_outer_iterations=int(inp.opt["iterations"]), device=inp.device)
         try:
             res = opt.grade(pattern, body_object(inp.base), body_object(inp.target), settings,
                             fabric=fabric, sim_settings=sim_settings,

@@ -10,6 +10,7 @@
 
 #include "bindings.hpp"
 #include "sim/simulator.hpp"
+#include "sim/tangent_solver.hpp"
 #include "sim_report.hpp"
 
 namespace py = pybind11;
@@ -19,6 +20,7 @@ using seamfit::sim::SimParams;
 using seamfit::sim::Simulator;
 using seamfit::sim::SolveReport;
 using seamfit::sim::SolveSettings;
+using seamfit::sim::TangentSolver;
 
 namespace seamfit::bindings {
 
@@ -312,6 +314,31 @@ void bind_sim(py::module_& m) {
              return py::make_tuple(x, report_dict(rep));
            },
            py::arg("x"), py::arg("settings"), py::arg("progress") = py::none());
+
+  py::class_<TangentSolver>(m, "TangentSolver",
+                            "Sparse LDL^T solves with a simulator's tangent stiffness (the adjoint's H).")
+      .def(py::init<Simulator&>(), py::arg("simulator"), py::keep_alive<1, 2>())
+      .def("factorize",
+           [](TangentSolver& t, DArr x, bool psd, double shift) {
+             require_shape(x, t.simulator().n_vertices(), 3, "x");
+             require_outside(t.simulator(), x.data());
+             py::gil_scoped_release nogil;
+             return t.factorize(x.data(), psd, shift);
+           },
+           py::arg("x"), py::arg("psd") = false, py::arg("shift") = 0.0,
+           "Factorize H(x) + shift * mean|diag H| * I; False when a pivot vanishes")
+      .def("solve",
+           [](const TangentSolver& t, DArr g) {
+             if (!t.ready()) throw SimError("TangentSolver.solve called without a successful factorize");
+             py::array_t<double> out(g.size());
+             {
+               py::gil_scoped_release nogil;
+               t.solve(g.data(), out.mutable_data());
+             }
+             return out;
+           },
+           py::arg("g"))
+      .def_property_readonly("factorizations", &TangentSolver::factorizations);
 }
 
 }  // namespace seamfit::bindings

@@ -69,6 +69,10 @@ def register(subparsers) -> None:
                    help=f"dimensionless barrier strength (default {st.mu:g}: 1 mm gap under the cloth's own weight)")
     p.add_argument("--sdf-spacing", metavar="M", type=float, default=0.0025,
                    help="body SDF grid spacing in metres (default 0.0025)")
+    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto",
+                   help="where the Chebyshev stages run (default auto: the GPU when one is present and "
+                        "the garment is large enough to pay; the Newton polish runs on the CPU); cuda "
+                        "fails at once with the reason when no GPU or CUDA build is present")
     p.add_argument("--no-picture", action="store_true", help="do not write drape.png")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
@@ -83,6 +87,7 @@ def _positive(name: str, value: float, allow_zero: bool = False) -> float:
 
 def run(args) -> int:
     from ..body import build_sdf, load_body
+    from ..device import resolve_device
     from ..fileio import atomic_write_text
     from ..mesh import build_sewn_mesh, write_obj
     from ..pattern import load_pattern
@@ -90,6 +95,7 @@ def run(args) -> int:
     from ..sim.dressing import initial_positions
     from ..sim.multilevel import drape_coarse_to_fine
 
+    resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
     _positive("--edge-length", args.edge_length)
     _positive("--tolerance", args.tolerance)
     _positive("--sdf-spacing", args.sdf_spacing)
@@ -114,8 +120,13 @@ def run(args) -> int:
     say(f"body SDF: {'x'.join(str(d) for d in sdf.values.shape[::-1])} nodes at {sdf.spacing * 1000:g} mm")
     fabric = Fabric(stretch_stiffness=args.stretch_stiffness, sewing_stiffness=args.sewing_stiffness,
                     bending_stiffness=args.bending_stiffness, density=args.density)
+    # Newton runs on the CPU: auto means the CPU for it.
+    device = "cpu" if args.method == "newton" and args.device == "auto" else \
+        resolve_device(args.device, problem_size=int(mesh.n_vertices))
+    if device == "cuda" and args.method == "newton":
+        raise SeamfitError("--method newton runs on the CPU only; use --device cpu or --method chebyshev")
     settings = SimSettings(method=args.method, tolerance=args.tolerance, mu=args.mu,
-                           max_seconds=args.max_seconds, polish=not args.no_polish)
+                           max_seconds=args.max_seconds, polish=not args.no_polish, device=device)
     if args.max_iterations is not None:
         if args.method == "newton":
             settings.newton_max_iterations = args.max_iterations
@@ -149,6 +160,7 @@ def run(args) -> int:
         "sewing_pairs": int(len(mesh.sewing_pairs)),
         "edge_length_cm": args.edge_length,
         "method": args.method,
+        "device": device,
         "coarse_start": not args.no_coarse_start,
         "tolerance": args.tolerance,
         "setup_seconds": t_setup,

@@ -74,8 +74,9 @@ def register(subparsers) -> None:
     p.add_argument("--truth", metavar="PATTERN", type=Path, default=None,
                    help="a pattern drafted for the target body: report landmark errors against it")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto",
-                   help="compute device (the optimizer runs on the CPU in this version; cuda fails "
-                        "with a message when unavailable)")
+                   help="where the simulations run (default auto: the GPU when one is present and the "
+                        "garment is large enough to pay; the gradient runs on the CPU in this version); "
+                        "cuda fails at once with the reason when no GPU or CUDA build is present")
     p.add_argument("--no-picture", action="store_true", help="do not write drape.png and pattern.png")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
@@ -90,11 +91,7 @@ def run(args) -> int:
     from ..opt.presets import preset
     from ..pattern import load_pattern, save_pattern, write_svg
 
-    from ..errors import DeviceError
     resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
-    if args.device == "cuda":
-        raise DeviceError("--device cuda: the grading loop runs on the CPU in this version; "
-                          "use --device cpu or auto")
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise SeamfitError(f"{out}: exists and is not a folder")
@@ -106,7 +103,7 @@ def run(args) -> int:
     settings = GradeSettings(preset=args.preset, strengths=strengths, method=args.method, edge_length_cm=args.edge_length,
                              sdf_spacing=args.sdf_spacing, inner_iterations=args.inner_iterations,
                              checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,
-                             time_budget_s=args.time_budget)
+                             time_budget_s=args.time_budget, device=args.device)
     t0 = time.perf_counter()
 
     def progress(info):

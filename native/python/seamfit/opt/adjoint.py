@@ -12,18 +12,23 @@ Keeping H solvable (docs/method.md, "Adjoint"): H is singular along motions the
 model does not resist (a skirt turning about a frictionless body) and may be
 indefinite away from equilibrium (compressed springs buckle sideways). The implicit
 function theorem needs H invertible, not definite, so we factorize the EXACT Hessian
-by sparse LU with a tiny Tikhonov shift eps * mean|diag H| * I (eps = 1e-8) that only
-pins the free modes. The PSD-projected Hessian (springs and hinges clamped to their
+with a tiny Tikhonov shift eps * mean|diag H| * I (eps = 1e-8) that only pins the free
+modes, by sparse LDL^T with an AMD ordering analysed once per mesh (the native
+TangentSolver); where a pivot vanishes there, by SciPy's sparse LU (SuperLU, COLAMD),
+which pivots. The LDL^T is about 3x faster (0.37 against 1.07 s with 16K unknowns). The PSD-projected Hessian (springs and hinges clamped to their
 positive part) is available but not the default: on a hanging panel with compressed
 springs it gave gradients off by up to 4x, against < 0.1 % for the exact one
 (tests/test_grade_gradient.py).
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .._native import core
 from ..errors import SolveError
 
 DEFAULT_SHIFT = 1e-8
@@ -38,8 +43,25 @@ class AdjointSolver:
         self.shift = shift
         self._solve = None
         self.factorizations = 0
+        self.seconds_factorize = 0.0   # Hessian assembly and factorization, summed
+        self.lu_fallbacks = 0          # factorizations that needed the pivoting LU
+        self._ldlt = None
 
     def factorize(self, x) -> None:
+        t0 = time.perf_counter()
+        try:
+            self._factorize(np.asarray(x, dtype=np.float64))
+        finally:
+            self.seconds_factorize += time.perf_counter() - t0
+
+    def _factorize(self, x) -> None:
+        if self._ldlt is None:
+            self._ldlt = core().TangentSolver(self.sim.core)
+        if self._ldlt.factorize(x, self.psd, self.shift):
+            self._solve = self._ldlt.solve
+            self.factorizations += 1
+            return
+        # A vanishing LDL^T pivot (no pivoting there): LU with partial pivoting.
         H = self.sim.hessian(x, psd=self.psd).tocsc()
         diag = H.diagonal()
         scale = float(np.mean(np.abs(diag))) if len(diag) else 1.0
@@ -51,11 +73,12 @@ class AdjointSolver:
         except RuntimeError as exc:  # SuperLU reports an exactly singular matrix
             raise SolveError(f"the tangent stiffness could not be factorized: {exc}") from exc
         self.factorizations += 1
+        self.lu_fallbacks += 1
 
     def solve(self, g) -> np.ndarray:
         if self._solve is None:
             raise SolveError("AdjointSolver.solve called before factorize")
-        lam = self._solve(np.asarray(g, dtype=float).reshape(-1))
+        lam = np.asarray(self._solve(np.ascontiguousarray(g, dtype=float).reshape(-1)))
         if not np.all(np.isfinite(lam)):
             raise SolveError("the adjoint solve produced non-finite values")
         return lam

@@ -39,8 +39,8 @@ def two_phase(ctx) -> SearchOutcome:
     out = descend(ctx, objective, ctx.param.theta_bar, start.x)
     f_start = out.checkpoints[0]["search_objective"]
     f_end = out.checkpoints[-1]["search_objective"]
-    out.details = {"two_phase": {"strengths": {"fix": phase2.fix, "cur": phase2.cur, "pos": phase2.pos},
-                                 "phase2_objective_initial": f_start, "phase2_objective_final": f_end}}
+    out.details["two_phase"] = {"strengths": {"fix": phase2.fix, "cur": phase2.cur, "pos": phase2.pos},
+                                "phase2_objective_initial": f_start, "phase2_objective_final": f_end}
     return out
 
 

@@ -48,10 +48,15 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
         hist["S"].append(S)
         hist["step"].append(s)
 
+    # Where the loop's time goes: simulation (inexact steps and exact checkpoints, on
+    # the simulator's device), gradient (costs, adjoint solve, df/dp) and the rest.
+    split = {"simulation": 0.0, "gradient": 0.0, "objective": 0.0}
     record(f0, True)
     max_work = 4 * settings.max_outer_iterations
     while k < settings.max_outer_iterations and work < max_work:
+        t_part = time.perf_counter()
         f_cur, g = objective.gradient(x, theta)
+        split["gradient"] += time.perf_counter() - t_part
         d = -regs.apply_preconditioner(g)
         # The preconditioner fixes the direction's shape, not its scale: cap the move
         # so an inexact state far from equilibrium cannot throw the pattern away.
@@ -64,7 +69,9 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
         sim.set_pattern(param.pattern(theta))
         at_checkpoint = (k % settings.checkpoint_every == 0) or k == settings.max_outer_iterations
         if not at_checkpoint:
+            t_part = time.perf_counter()
             res = sim.solve(x, tolerance=1e-12, max_iterations=S)
+            split["simulation"] += time.perf_counter() - t_part
             x = res.x
             record(f_cur, False)
             ctx.tell(stage=label, iteration=k, objective=f_cur, exact=False)
@@ -72,8 +79,12 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
                 at_checkpoint = True
             else:
                 continue
+        t_part = time.perf_counter()
         res = ctx.exact(theta, x, "checkpoint")
+        t_obj = time.perf_counter()
+        split["simulation"] += t_obj - t_part
         f, f_terms = objective.objective(res.x, theta)
+        split["objective"] += time.perf_counter() - t_obj
         sim_state = {"converged": res.converged, "residual": res.residual,
                      "max_sewing_gap_mm": res.max_sewing_gap_mm, "min_phi_mm": res.min_phi_mm, "terms": f_terms}
         if not (np.isfinite(f) and f <= ck_f):
@@ -112,4 +123,5 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
         checkpoints=[{"iteration": i, "objective": float(fg), "search_objective": float(fs)}
                      for i, fs, fg in checkpoints],
         cost_evaluations=dict(objective.evaluations), history=hist,
-        seconds_loop=time.perf_counter() - t_loop)
+        seconds_loop=time.perf_counter() - t_loop,
+        details={"seconds_loop_split": {**split, "factorizations": ctx.adjoint.seconds_factorize}})

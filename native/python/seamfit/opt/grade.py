@@ -68,6 +68,7 @@ class GradeSettings:
     fixed_point_relaxation: float = 1.0       # fixed-point: fraction of each pattern update taken
     fixed_point_tolerance_mm: float = 0.1     # fixed-point: converged when no boundary vertex moves more
     fixed_point_regularize: bool = True       # fixed-point: R^fix + R^cur in the pattern update
+    device: str = "auto"                      # simulations on auto | cpu | cuda (seamfit.device)
 
     def resolved_strengths(self) -> Strengths:
         if self.strengths is not None:
@@ -75,6 +76,8 @@ class GradeSettings:
         return preset(self.preset).strengths
 
     def validate(self) -> None:
+        if self.device not in ("auto", "cpu", "cuda"):
+            raise SolveError(f"unknown device {self.device!r}; choose auto, cpu or cuda")
         if self.method not in METHODS:
             raise SolveError(f"unknown grading method {self.method!r}; choose one of {', '.join(METHODS)}")
         if self.inner_iterations < 1 or self.checkpoint_every < 1 or self.max_outer_iterations < 0:

@@ -99,6 +99,7 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
     work = out.iterations_done
     report = {
         "method": method,
+        "device": sim.settings.device,
         "objective_base_pattern": ctx.objective_base,
         "objective_initial": f0,
         "objective_final": f_final,

@@ -5,12 +5,13 @@ simulator on the target body."""
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Callable, Optional
 
 import numpy as np
 
 from ..cache import content_key, load_arrays, save_arrays
+from ..device import resolve_device
 from ..errors import SolveError
 from ..mesh import build_sewn_mesh
 from ..pattern import Pattern, check_pattern
@@ -29,8 +30,10 @@ ProgressFn = Callable[[dict], Optional[bool]]
 def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, *, progress=None):
     """x-bar, the base garment on the base body, cached on disk by content."""
     from ..sim.multilevel import drape_coarse_to_fine
+    # The device is not an input of the physics: a drape made on the GPU serves the CPU too.
+    physics = {k: v for k, v in asdict(settings).items() if k != "device"}
     key = content_key("base-drape-2", mesh.cache_key(), body.vertices, body.faces, float(sdf.spacing),
-                      asdict(fabric), asdict(settings))
+                      asdict(fabric), physics)
     hit = load_arrays("drape", key)
     if hit is not None and hit["x"].shape == mesh.x0.shape:
         return hit["x"], {"cached": True, "key": key, **{k: float(hit[k]) for k in ("residual", "seconds")}}
@@ -121,6 +124,11 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     check_pattern(base_pattern)
     tell(stage="mesh")
     mesh = build_sewn_mesh(base_pattern, edge_length_cm=settings.edge_length_cm)
+    # Where the simulations run; the adjoint gradient and the costs stay on the CPU.
+    # A GPU pays only on large garments (seamfit.device.GPU_MIN_VERTICES).
+    device = resolve_device(getattr(settings, "device", "auto"), problem_size=int(mesh.n_vertices))
+    if device != sim_settings.device:
+        sim_settings = replace(sim_settings, device=device)
     tell(stage="sdf")
     base_sdf = build_sdf(base_body, spacing=settings.sdf_spacing)
     target_sdf = build_sdf(target_body, spacing=settings.sdf_spacing)

@@ -1,0 +1,175 @@
+"""Grading on the GPU against the CPU: the same grading (GarmentCode's pencil skirt, size 6
+to size 10) at several mesh sizes, its simulations on each device, with the loop's time
+split into simulation (inexact steps and exact checkpoints), gradient (costs, adjoint
+factorization and solve, df/dp) and objective evaluations, and the two results compared.
+
+    # on a machine with a GPU (results.json rewritten after every run):
+    PYTHONPATH=native/python python tests/benchmarks/bench_grade_device.py run --out OUT
+    # docs/grade_device_results.md and its plot from one or more results.json:
+    PYTHONPATH=native/python python tests/benchmarks/bench_grade_device.py report OUT/results.json
+
+Per size the GPU runs first; its base drape is cached (the cache key leaves the device
+out), so the CPU run starts from the same x-bar and both loops do the same work. The base
+drape's time is reported for the run that made it.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "native" / "python"))
+
+from seamfit.fileio import atomic_write_text  # noqa: E402
+
+SAMPLES = ROOT / "sample_files"
+PATTERN = SAMPLES / "patterns" / "gc_pencil_skirt" / "size06" / "pattern.json"
+B0 = SAMPLES / "bodies" / "women_size06.obj"
+B1 = SAMPLES / "bodies" / "women_size10.obj"
+
+
+def grade_once(edge_cm: float, device: str, args) -> dict:
+    from seamfit.body import load_body
+    from seamfit.opt.grade import GradeSettings, grade
+    from seamfit.pattern import load_pattern
+    from seamfit.sim import SimSettings
+
+    settings = GradeSettings(edge_length_cm=edge_cm, max_outer_iterations=args.max_iterations,
+                             checkpoint_every=args.checkpoint_every, device=device,
+                             evaluate_base_pattern=False, time_budget_s=args.time_budget)
+    sim_settings = SimSettings(max_seconds=args.stage_seconds)
+    t0 = time.perf_counter()
+    res = grade(load_pattern(PATTERN), load_body(B0), load_body(B1), settings, sim_settings=sim_settings)
+    r = res.report
+    return {"edge_length_cm": edge_cm, "device": r["device"], "triangles": r["mesh"]["triangles"],
+            "vertices": r["mesh"]["vertices"], "wall_s": time.perf_counter() - t0,
+            "seconds_total": r["seconds_total"], "seconds_precompute": r["seconds_precompute"],
+            "seconds_loop": r["seconds_loop"], "seconds_per_iteration": r["seconds_per_iteration"],
+            "split": r["seconds_loop_split"], "base_drape": r["base_drape"],
+            "outer_iterations": r["outer_iterations"], "outer_iterations_done": r["outer_iterations_done"],
+            "objective_initial": r["objective_initial"], "objective_final": r["objective_final"],
+            "objective_reduction": r["objective_reduction"], "converged": r["converged"],
+            "message": r["message"], "drape": r["drape"],
+            "uv_cm": res.uv_cm.tolist()}
+
+
+def cmd_run(args) -> int:
+    import numpy as np
+
+    args.out.mkdir(parents=True, exist_ok=True)
+    meta = {"machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+                       f"Python {platform.python_version()}", "command": " ".join(sys.argv),
+            "max_iterations": args.max_iterations, "checkpoint_every": args.checkpoint_every,
+            "threads": os.environ.get("OMP_NUM_THREADS", "all")}
+    try:
+        from seamfit import _native
+        meta["gpu"] = str(_native.core().cuda_device_name(0))
+    except Exception as exc:  # no GPU: the CPU rows alone
+        meta["gpu"] = f"none ({exc})"
+    rows = []
+    for edge in args.edges:
+        uv = {}
+        for device in args.devices:
+            if device == "cpu" and edge < args.cpu_min_edge:
+                continue
+            try:
+                row = grade_once(edge, device, args)
+            except Exception as exc:  # recorded, not fatal: the other sizes still run
+                row = {"edge_length_cm": edge, "device": device, "error": f"{type(exc).__name__}: {exc}"}
+            uv[device] = np.asarray(row.pop("uv_cm", []))
+            if len(uv) == 2 and all(len(u) for u in uv.values()):
+                a, b = uv.values()
+                row["pattern_difference_mm"] = float(np.max(np.linalg.norm(a - b, axis=1)) * 10.0)
+            rows.append(row)
+            atomic_write_text(args.out / "results.json", json.dumps({"meta": meta, "runs": rows}, indent=1))
+            print(json.dumps({k: v for k, v in row.items() if k not in ("base_drape", "drape")}), flush=True)
+    return 0
+
+
+def cmd_report(args) -> int:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    runs, metas = [], []
+    for path in args.results:
+        d = json.loads(path.read_text())
+        metas.append(d["meta"])
+        runs += d["runs"]
+    ok = [r for r in runs if "error" not in r]
+    lines = ["# Grading with its simulations on the GPU", "",
+             "Generated by `tests/benchmarks/bench_grade_device.py` (GarmentCode pencil skirt, size 6 to size "
+             "10, default strengths, at most "
+             f"{metas[0]['max_iterations']} outer iterations, an exact checkpoint every "
+             f"{metas[0]['checkpoint_every']}). Machines: "
+             + "; ".join(f"{m['machine']}, GPU {m['gpu']}" for m in metas) + ".", "",
+             "| triangles | device | base drape s | loop s | per outer iteration s | simulation s | gradient s "
+             "(factorizations) | objective s | outer iterations | objective reduction | pattern difference mm |",
+             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in sorted(ok, key=lambda r: (r["triangles"], r["device"])):
+        sp = r["split"]
+        bd = r["base_drape"]
+        lines.append(
+            f"| {r['triangles']:,} | {r['device']} | {'cached' if bd.get('cached') else format(bd['seconds'], '.1f')} | "
+            f"{r['seconds_loop']:.1f} | {r['seconds_per_iteration']:.3f} | {sp['simulation']:.1f} | "
+            f"{sp['gradient']:.1f} ({sp['factorizations']:.1f}) | {sp['objective']:.1f} | "
+            f"{r['outer_iterations_done']} | {100 * r['objective_reduction']:.1f} % | "
+            f"{r.get('pattern_difference_mm', float('nan')):.2f} |")
+    for r in runs:
+        if "error" in r:
+            lines.append(f"\n* {r['edge_length_cm']} cm on {r['device']}: {r['error']}")
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for dev, mk in (("cpu", "o"), ("cuda", "s")):
+        rr = sorted([r for r in ok if r["device"] == dev], key=lambda r: r["triangles"])
+        if not rr:
+            continue
+        tri = [r["triangles"] for r in rr]
+        ax.plot(tri, [r["split"]["simulation"] / max(r["outer_iterations_done"], 1) for r in rr], mk + "-",
+                label=f"{dev}: simulation")
+        ax.plot(tri, [r["split"]["gradient"] / max(r["outer_iterations_done"], 1) for r in rr], mk + "--",
+                label=f"{dev}: gradient (CPU)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("triangles")
+    ax.set_ylabel("seconds per outer iteration")
+    ax.set_title("Grading loop: where the time goes")
+    ax.legend()
+    fig.tight_layout()
+    img = args.docs / "img" / "grade_device_split.png"
+    img.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(img, dpi=110)
+    lines += ["", f"![seconds per outer iteration](img/{img.name})", ""]
+    atomic_write_text(args.docs / "grade_device_results.md", "\n".join(lines) + "\n")
+    print(f"wrote {args.docs / 'grade_device_results.md'} and {img}")
+    return 0
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run")
+    r.add_argument("--out", type=Path, required=True)
+    r.add_argument("--edges", type=float, nargs="+", default=[1.1, 0.64, 0.45],
+                   help="mesh edge lengths in cm (default: about 10K, 30K and 60K triangles)")
+    r.add_argument("--devices", nargs="+", default=["cuda", "cpu"])
+    r.add_argument("--cpu-min-edge", type=float, default=0.0, help="no CPU run below this edge length")
+    r.add_argument("--max-iterations", type=int, default=32)
+    r.add_argument("--checkpoint-every", type=int, default=16)
+    r.add_argument("--time-budget", type=float, default=0.0, help="seconds per grading (default none)")
+    r.add_argument("--stage-seconds", type=float, default=120.0, help="time budget per drape stage")
+    r.set_defaults(func=cmd_run)
+    q = sub.add_parser("report")
+    q.add_argument("results", type=Path, nargs="+")
+    q.add_argument("--docs", type=Path, default=ROOT / "docs")
+    q.set_defaults(func=cmd_report)
+    args = p.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -54,7 +54,7 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
             "outer_iterations": r["outer_iterations"], "outer_iterations_done": r["outer_iterations_done"],
             "objective_initial": r["objective_initial"], "objective_final": r["objective_final"],
             "objective_reduction": r["objective_reduction"], "converged": r["converged"],
-            "message": r["message"], "drape": r["drape"],
+            "message": r["message"], "drape": r["drape"], "adjoint": r.get("adjoint"),
             "uv_cm": res.uv_cm.tolist()}
 
 

@@ -61,36 +61,49 @@ def test_device_cuda_grades_or_fails_clearly(tmp_path, capsys, graded):
     assert not (tmp_path / "x").exists()
 
 
-def _grade_api(device):
-    """The CLI's grading through the API, with the CPU solver taking the GPU's iteration
-    (no lagged spring blocks, no far-field bound): the two devices then differ only in
-    the order of floating-point sums."""
+def _grade_api(device, precond_refresh=1, iterations=256):
+    """The CLI's grading case through the API, run long (256 accepted outer iterations):
+    after 32 the search is far from converged and its path is what differs."""
+    from dataclasses import replace
+
     from seamfit.body import load_body
     from seamfit.opt.grade import GradeSettings, grade
     from seamfit.opt.presets import preset
-    from dataclasses import replace
     from seamfit.sim import SimSettings
 
     settings = GradeSettings(strengths=replace(preset("dress").strengths, smo=0.0), edge_length_cm=4.0,
-                             sdf_spacing=0.005, max_outer_iterations=32, checkpoint_every=16, device=device,
-                             evaluate_base_pattern=False)
-    return grade(load_pattern(PATTERN), load_body(B0), load_body(B1), settings,
-                 sim_settings=SimSettings(precond_refresh=1, far_bound=False))
+                             sdf_spacing=0.005, max_outer_iterations=iterations, checkpoint_every=16,
+                             device=device, evaluate_base_pattern=False)
+    sim = SimSettings(precond_refresh=precond_refresh, far_bound=precond_refresh != 1)
+    return grade(load_pattern(PATTERN), load_body(B0), load_body(B1), settings, sim_settings=sim)
 
 
-def test_gpu_and_cpu_searches_both_descend():
-    """Both devices run the same search and both must descend: every accepted checkpoint
-    lowers the objective, and the result dresses the target body. They do not end at the
-    same pattern: the search's inexact steps and checkpoint decisions depend on the last
-    bits of the simulations, and on an H100 this case ended 4.5 mm apart (objective 4.53
-    on the CPU, 6.26 on the GPU; docs/gpu.md, "Grading on the GPU")."""
-    if not GPU:
-        assert DEVICES == ["cpu"]
-        return
-    for device in ("cpu", "cuda"):
-        rep = _grade_api(device).report
-        assert rep["device"] == device
-        f = [c["objective"] for c in rep["checkpoints"]]
-        assert all(b <= a for a, b in zip(f, f[1:])), (device, f)
-        assert rep["objective_final"] < rep["objective_initial"]
-        assert rep["drape"]["max_sewing_gap_mm"] <= 2.0 and rep["drape"]["min_phi_mm"] >= -1.0
+def _apart_mm(a, b):
+    return 10.0 * float(np.max(np.linalg.norm(np.asarray(a.uv_cm) - np.asarray(b.uv_cm), axis=1)))
+
+
+def test_gpu_grading_matches_the_cpu_as_closely_as_two_cpu_solvers():
+    """The search's path depends on its inexact simulator steps, so two equally valid
+    simulators end at different patterns: the CPU solver with and without its lagged
+    spring blocks is the reference for how far apart. The GPU (which takes the CPU's
+    iteration without them, up to the order of sums) must stay within that spread of the
+    CPU: its pattern within the spread plus 0.5 mm, its objective within twice the
+    spread's objective difference plus 1 %.
+    Measured on an H100 (docs/gpu.md, "Grading on the GPU"): objectives 3.740 (CPU), 3.869
+    (CPU, lagged blocks), 3.969 (GPU); patterns 1.73 mm (CPU, lagged) and 1.77 mm (GPU)
+    from the CPU's."""
+    cpu, cpu_lagged, gpu = _grade_api("cpu"), _grade_api("cpu", precond_refresh=4), _grade_api("cuda")
+    spread = _apart_mm(cpu, cpu_lagged)
+    apart = _apart_mm(cpu, gpu)
+    fc, fg = cpu.report["objective_final"], gpu.report["objective_final"]
+    print(f"cpu {fc:.5g}, cpu lagged {cpu_lagged.report['objective_final']:.5g}, gpu {fg:.5g}; "
+          f"cpu-cpu lagged {spread:.2f} mm, cpu-gpu {apart:.2f} mm")
+    assert gpu.report["device"] == "cuda"
+    assert apart <= spread + 0.5, (apart, spread)
+    fl = cpu_lagged.report["objective_final"]
+    assert abs(fg - fc) <= 2 * abs(fl - fc) + 0.01 * fc, (fc, fl, fg)
+
+
+if not GPU:
+    # nothing to compare on a machine without a GPU (rather than a test reported as skipped)
+    del test_gpu_grading_matches_the_cpu_as_closely_as_two_cpu_solvers

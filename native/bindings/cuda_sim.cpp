@@ -116,6 +116,20 @@ void bind_cuda_sim(py::module_& m) {
              }
              return f;
            })
+      .def("hess_vec",
+           [](SimGpu& g, DArr x, DArr v, bool psd) {
+             require_x(g, x);
+             require_x(g, v);
+             require_outside(g, x.data());
+             py::array_t<double> out({py::ssize_t(g.simulator().n_vertices()), py::ssize_t(3)});
+             double* op = out.mutable_data();
+             {
+               py::gil_scoped_release nogil;
+               g.hess_vec(x.data(), v.data(), op, psd);
+             }
+             return out;
+           },
+           py::arg("x"), py::arg("v"), py::arg("psd") = false)
       .def("solve",
            [](SimGpu& g, DArr x0, const SolveSettings& st, py::object progress) {
              require_x(g, x0);

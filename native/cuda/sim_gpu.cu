@@ -274,6 +274,13 @@ __global__ void __launch_bounds__(256) k_step(DevModel<R> m, const Ctrl* c, doub
   block_sum<2>(acc, part + 2 * blockIdx.x);
 }
 
+template <class R>
+__global__ void __launch_bounds__(256) k_hess_vec(DevModel<R> m, const double* __restrict__ x,
+                                                  const double* __restrict__ vin, double* __restrict__ out, int psd) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v < m.n) store3(out, v, hess_vec_vertex(m, x, vin, v, psd != 0));
+}
+
 __global__ void __launch_bounds__(kCtrlThreads) k_sums(const double* pe, int nb, double* out) {
   __shared__ double sums[kSums];
   reduce_parts(pe, nb, nullptr, 0, sums);
@@ -588,6 +595,24 @@ double SimGpu::force(const double* x, double* fout, sim::EnergyTerms* terms) {
 }
 
 double SimGpu::energy(const double* x, sim::EnergyTerms* terms) { return force(x, nullptr, terms); }
+void SimGpu::hess_vec(const double* x, const double* v, double* out, bool psd) {
+  Impl& I = *impl_;
+  const size_t n3 = 3 * size_t(I.n);
+  // Outside a solve the two state buffers and the force buffer are scratch.
+  SF_CUDA(cudaMemcpyAsync(I.xbuf[0].p, x, n3 * sizeof(double), cudaMemcpyHostToDevice, I.stream));
+  SF_CUDA(cudaMemcpyAsync(I.xbuf[1].p, v, n3 * sizeof(double), cudaMemcpyHostToDevice, I.stream));
+  const int nb = (I.n + opt_.block - 1) / opt_.block;
+  I.with_model([&](auto& m) {
+    using M = std::decay_t<decltype(m)>;
+    using R = std::remove_const_t<std::remove_pointer_t<decltype(M::rest_L)>>;
+    k_hess_vec<R><<<nb, opt_.block, 0, I.stream>>>(m, I.xbuf[0].as<double>(), I.xbuf[1].as<double>(),
+                                                  I.f.as<double>(), psd ? 1 : 0);
+  });
+  SF_CUDA(cudaGetLastError());
+  SF_CUDA(cudaMemcpyAsync(out, I.f.p, n3 * sizeof(double), cudaMemcpyDeviceToHost, I.stream));
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+}
+
 
 sim::SolveReport SimGpu::solve(double* x, const sim::SolveSettings& st, const sim::ProgressFn& progress,
                                const std::atomic<bool>* cancel) {

@@ -52,6 +52,8 @@ class SimGpu {
   // f = -dE/dx (3n) at x; returns the energy (+inf with a vertex inside).
   double force(const double* x, double* f, sim::EnergyTerms* terms);
   double energy(const double* x, sim::EnergyTerms* terms);
+  // out = (d2E/dx2) v (3n) at x, exact or PSD-projected, as Simulator::hess_vec.
+  void hess_vec(const double* x, const double* v, double* out, bool psd);
   // The Chebyshev solve of Simulator::solve (method 0) on the device.
   sim::SolveReport solve(double* x, const sim::SolveSettings& s, const sim::ProgressFn& progress,
                          const std::atomic<bool>* cancel = nullptr);

@@ -130,6 +130,43 @@ SF_HD void eval_vertex(const DevModel<R>& m, const double* x, int v, bool known,
   f = -g;
 }
 
+// (d2E/dx2) vin at vertex v, exact or PSD-projected, by one thread: the
+// product of Simulator::hess_vec term for term (each pair's Hessian block is
+// evaluated at both of its ends, a gather instead of the CPU's scatter).
+template <class R>
+SF_HD Vec3 hess_vec_vertex(const DevModel<R>& m, const double* x, const double* vin, int v, bool psd) {
+  const Vec3 vv = load3(vin, v);
+  Vec3 r = make_vec3(0, 0, 0);
+  if (m.Y > 0) {
+    for (int k = m.vs_ptr[v]; k < m.vs_ptr[v + 1]; ++k) {
+      const int code = m.vs_idx[k], sp = code >> 1, i = m.spring_v[2 * sp], j = m.spring_v[2 * sp + 1];
+      const Sym3 He = sim::patch_spring_hess(load3(x, i), load3(x, j), double(m.rest_L[sp]),
+                                             double(m.shirring[sp]), m.Y, psd);
+      const Vec3 ge = He * (load3(vin, i) - load3(vin, j));
+      if (code & 1) r -= ge; else r += ge;
+    }
+  }
+  if (m.Ys > 0)
+    for (int k = m.vw_ptr[v]; k < m.vw_ptr[v + 1]; ++k) r += m.Ys * (vv - load3(vin, m.vw_idx[k]));
+  if (m.kb > 0)
+    for (int k = m.nbr_ptr[v]; k < m.nbr_ptr[v + 1]; ++k) r += (m.kb * double(m.Q[k])) * load3(vin, m.nbr_idx[k]);
+  if (m.stick && m.stick_k[v] > 0) r += m.stick_k[v] * vv;
+  if (m.bar) {
+    const Vec3 xv = load3(x, v);
+    const SdfSample s = sim::barrier_field(m.sdf, m.smooth != 0, xv);
+    if (s.phi > 0) {
+      const double c = double(m.barrier_c[v]);
+      if (psd) {
+        r += sim::barrier_hess_psd(c, m.dhat, s) * vv;
+      } else {
+        const Sym3 Hphi = m.smooth ? sim::sdf_sample_smooth<true>(m.sdf, xv).hess : sim::sdf_hessian(m.sdf, xv);
+        r += sim::barrier_hess(c, m.dhat, s, Hphi) * vv;
+      }
+    }
+  }
+  return r;
+}
+
 // ---------------------------------------------------------------------------
 // Control state of one solve, on the device. The kernels of an iteration read
 // mode / omega / alpha / save_ck from it; the control kernel updates it from

@@ -82,6 +82,11 @@ class CudaSimulator:
         """f = -dE/dx, shape (N, 3), evaluated on the GPU."""
         return self._gpu.force(np.asarray(x, dtype=np.float64))
 
+    def hess_vec(self, x, v, psd: bool = False) -> np.ndarray:
+        """(d2E/dx2) v, shape (N, 3), on the GPU (exact, or PSD-projected with psd);
+        the product the adjoint's iterative solve is built on."""
+        return self._gpu.hess_vec(np.asarray(x, dtype=np.float64), np.asarray(v, dtype=np.float64), bool(psd))
+
     def residual(self, x) -> float:
         return float(np.linalg.norm(self.force(x)) / self._core_sim.weight_norm)
 

@@ -30,6 +30,9 @@ def resolve_device(requested: str, *, problem_size: int = 0) -> str:
     return "cuda" if ok and problem_size >= GPU_MIN_VERTICES else "cpu"
 
 
-# Below this many garment vertices the CPU finishes an iteration before a GPU launch
-# sequence pays for itself (to be replaced by the measured crossover).
-GPU_MIN_VERTICES = 20000
+# From this many garment vertices up, auto takes the GPU. Measured on an H100
+# (docs/gpu.md, "Grading on the GPU"): at 5,458 vertices the grading's simulations ran 11x
+# faster than on the host's 16 CPU threads, and one simulator iteration at 5,304 vertices
+# took 21 us on an H200 against 243 us (docs/gpu_results.md); smaller garments were not measured, and
+# below a few thousand vertices the per-call transfers and graph captures are a larger share.
+GPU_MIN_VERTICES = 5000

@@ -68,3 +68,24 @@ def test_drape_rejects_bad_arguments(tmp_path, capsys):
     assert "--edge-length" in capsys.readouterr().err
     assert cli.main(["drape", str(tmp_path / "missing.json"), str(BODY), "--out", str(tmp_path)]) == 2
     assert "error" in capsys.readouterr().err
+
+
+def test_drape_device_runs_or_fails_at_once(tmp_path, capsys):
+    """--device cuda drapes where a GPU is present (the report says so) and otherwise
+    stops before any work with the reason, writing nothing; --device cpu is recorded."""
+    from seamfit._native import core
+    out = tmp_path / "gpu"
+    args = ["drape", str(PATTERN), str(BODY), "--out", str(out), "--edge-length", "3", "--sdf-spacing", "0.005",
+            "--max-iterations", "200", "--no-polish", "--no-coarse-start", "--no-picture", "-q"]
+    rc = cli.main(args + ["--device", "cuda"])
+    if core().cuda_device_count() > 0:
+        assert rc in (0, 1) and json.loads((out / "report.json").read_text())["device"] == "cuda"
+    else:
+        assert rc == 2
+        err = capsys.readouterr().err
+        assert "--device cuda" in err and ("no CUDA" in err or "without nvcc" in err)
+        assert not out.exists()
+    cpu = tmp_path / "cpu"
+    args[args.index(str(out))] = str(cpu)
+    assert cli.main(args + ["--device", "cpu"]) in (0, 1)
+    assert json.loads((cpu / "report.json").read_text())["device"] == "cpu"

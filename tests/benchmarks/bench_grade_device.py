@@ -7,6 +7,9 @@ factorization and solve, df/dp) and objective evaluations, and the two results c
     PYTHONPATH=native/python python tests/benchmarks/bench_grade_device.py run --out OUT
     # docs/grade_device_results.md and its plot from one or more results.json:
     PYTHONPATH=native/python python tests/benchmarks/bench_grade_device.py report OUT/results.json
+    # the paper's Fig. 10: objective against time for S = 1, 2, 4, 8 simulator iterations
+    # per outer iteration, on each device (curves.json and docs/img/grade_s_curves.png):
+    PYTHONPATH=native/python python tests/benchmarks/bench_grade_device.py curves --out OUT --devices cpu cuda
 
 Per size the GPU runs first; its base drape is cached (the cache key leaves the device
 out), so the CPU run starts from the same x-bar and both loops do the same work. The base
@@ -149,6 +152,59 @@ def cmd_report(args) -> int:
     return 0
 
 
+def cmd_curves(args) -> int:
+    """Objective at the exact checkpoints against loop time, S fixed per run (it only
+    grows on a backtrack, as in Algorithm 1), plotted as the paper's relative error
+    (f - f*) / (f0 - f*), f* the lowest final objective of all runs."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from seamfit.body import load_body
+    from seamfit.opt.grade import GradeSettings, grade
+    from seamfit.pattern import load_pattern
+
+    args.out.mkdir(parents=True, exist_ok=True)
+    runs = []
+    for device in args.devices:
+        for S in args.S:
+            settings = GradeSettings(edge_length_cm=args.edge, max_outer_iterations=args.max_iterations,
+                                     checkpoint_every=args.checkpoint_every, inner_iterations=S,
+                                     min_inner_iterations=S, device=device, evaluate_base_pattern=False)
+            res = grade(load_pattern(PATTERN), load_body(B0), load_body(B1), settings)
+            h, r = res.history, res.report
+            # accepted checkpoints: a backtrack's rejected one is undone, so the curve is the
+            # running minimum of the exact objectives
+            pts, best = [], float("inf")
+            for t, f, e in zip(h["seconds"], h["objective"], h["exact"]):
+                if e:
+                    best = min(best, f)
+                    pts.append((t, best))
+            runs.append({"device": r["device"], "S": S, "triangles": r["mesh"]["triangles"],
+                         "seconds_loop": r["seconds_loop"], "objective_final": r["objective_final"],
+                         "outer_iterations_done": r["outer_iterations_done"], "backtracks": r["backtracks"],
+                         "checkpoints": pts})
+            print(json.dumps({k: v for k, v in runs[-1].items() if k != "checkpoints"}), flush=True)
+            atomic_write_text(args.out / "curves.json", json.dumps({"runs": runs}, indent=1))
+    f_star = min(min(f for _, f in r["checkpoints"]) for r in runs)
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for r in runs:
+        t = [p[0] for p in r["checkpoints"]]
+        f0 = r["checkpoints"][0][1]
+        err = [max((f - f_star) / (f0 - f_star), 1e-6) for _, f in r["checkpoints"]]
+        ax.plot(t, err, "o-" if r["device"] == "cpu" else "s--", ms=3, label=f"{r['device']}, S = {r['S']}")
+    ax.set_yscale("log")
+    ax.set_xlabel("seconds in the loop")
+    ax.set_ylabel("(f - f*) / (f0 - f*)")
+    ax.set_title(f"Objective against time, {runs[0]['triangles']:,} triangles")
+    ax.legend()
+    fig.tight_layout()
+    img = args.docs / "img" / "grade_s_curves.png"
+    img.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(img, dpi=110)
+    print(f"wrote {args.out / 'curves.json'} and {img}")
+    return 0
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -163,6 +219,15 @@ def main(argv=None) -> int:
     r.add_argument("--time-budget", type=float, default=0.0, help="seconds per grading (default none)")
     r.add_argument("--stage-seconds", type=float, default=120.0, help="time budget per drape stage")
     r.set_defaults(func=cmd_run)
+    c = sub.add_parser("curves")
+    c.add_argument("--out", type=Path, required=True)
+    c.add_argument("--devices", nargs="+", default=["cpu"])
+    c.add_argument("--S", type=int, nargs="+", default=[1, 2, 4, 8])
+    c.add_argument("--edge", type=float, default=1.1, help="mesh edge length in cm (default 1.1: about 10K triangles)")
+    c.add_argument("--max-iterations", type=int, default=64)
+    c.add_argument("--checkpoint-every", type=int, default=8)
+    c.add_argument("--docs", type=Path, default=ROOT / "docs")
+    c.set_defaults(func=cmd_curves)
     q = sub.add_parser("report")
     q.add_argument("results", type=Path, nargs="+")
     q.add_argument("--docs", type=Path, default=ROOT / "docs")

@@ -122,7 +122,9 @@ def _run_line(meta: dict, i: int, n_cases: int) -> str:
     if budget is None:  # runs written before max_seconds was recorded: read it off the command
         words = meta["command"].split()
         budget = float(words[words.index("--max-seconds") + 1]) if "--max-seconds" in words else 0.0
-    which = "all cases" if len(meta["supplied"]) == n_cases else ", ".join(meta["supplied"])
+    k = len(meta["supplied"])
+    which = ("all cases" if k == n_cases else ", ".join(meta["supplied"]) if k <= 12
+             else f"{k} cases, all but those of the other runs")
     return (f"* Run {i + 1} ({which}): {meta['machine']}; {meta['jobs']} drapes at once, {meta['threads']} "
             f"thread(s) each; {meta['edge_length_cm']} cm mesh, {meta['sdf_spacing_m'] * 1000:g} mm SDF; "
             f"{'a budget of %g s per stage' % budget if budget else 'no time budget (the default)'}; "
@@ -162,6 +164,8 @@ def cmd_report(args) -> int:
         lines += ["", "## Outside the limits", ""]
         for r in bad:
             lines.append(f"* {r['garment']}/{r['body']}: {r.get('message') or r.get('error', '')[:300]}")
+    if args.notes:
+        lines += ["", args.notes.read_text().strip()]
     atomic_write_text(args.docs / "dress_results.md", "\n".join(lines) + "\n")
     print(f"{len(good)} / {len(rows)} within the limits; wrote {args.docs / 'dress_results.md'}")
     return 0
@@ -186,6 +190,7 @@ def main(argv=None) -> int:
                    help="results.json of one or more runs; a later run's case replaces an earlier one's")
     q.add_argument("--docs", type=Path, default=ROOT / "docs")
     q.add_argument("--note", default=None)
+    q.add_argument("--notes", type=Path, default=None, help="markdown appended after the table (the discussion)")
     q.set_defaults(func=cmd_report)
     args = p.parse_args(argv)
     return args.func(args)

@@ -158,9 +158,9 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     iterations: IntProperty(name="Outer iterations", default=256, min=1, soft_max=4096,
                             description="Most outer iterations of the grading")
     device: EnumProperty(name="Device", default="AUTO", items=[
-        ("AUTO", "Auto", "CUDA when a GPU is present, otherwise CPU"),
+        ("AUTO", "Auto", "The GPU for large garments when one is present, otherwise the CPU"),
         ("CPU", "CPU", "Run on the processor"),
-        ("CUDA", "CUDA", "Run on the NVIDIA GPU (fails if none is present)"),
+        ("CUDA", "CUDA", "Simulate on the NVIDIA GPU (stops with the reason if none can be used)"),
     ])
     show_overlay: BoolProperty(name="Pattern overlay", default=True,
                                description="Draw corners and stitch lengths in the viewport")

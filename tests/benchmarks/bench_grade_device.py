@@ -147,14 +147,26 @@ def cmd_report(args) -> int:
     img.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(img, dpi=110)
     lines += ["", f"![seconds per outer iteration](img/{img.name})", ""]
+    if args.curves:
+        cur = json.loads(args.curves.read_text())["runs"]
+        lines += ["## Objective against time, S = 1, 2, 4, 8", "",
+                  f"From `bench_grade_device.py curves` ({args.curves.name}): the same grading with S simulator "
+                  "iterations per outer iteration (a backtrack doubles it, accepted checkpoints halve it back), objective at the accepted exact "
+                  "checkpoints against loop time, as the paper's Fig. 10.", "",
+                  "| device | S | triangles | loop s | outer iterations done | backtracks | final objective |",
+                  "|---|---:|---:|---:|---:|---:|---:|"]
+        for r in cur:
+            lines.append(f"| {r['device']} | {r['S']} | {r['triangles']:,} | {r['seconds_loop']:.0f} | "
+                         f"{r['outer_iterations_done']} | {r['backtracks']} | {r['objective_final']:.3f} |")
+        lines += ["", "![objective against time](img/grade_s_curves.png)", ""]
     atomic_write_text(args.docs / "grade_device_results.md", "\n".join(lines) + "\n")
     print(f"wrote {args.docs / 'grade_device_results.md'} and {img}")
     return 0
 
 
 def cmd_curves(args) -> int:
-    """Objective at the exact checkpoints against loop time, S fixed per run (it only
-    grows on a backtrack, as in Algorithm 1), plotted as the paper's relative error
+    """Objective at the exact checkpoints against loop time, one run per S (a backtrack
+    doubles it and accepted checkpoints halve it back, as in Algorithm 1), plotted as the paper's relative error
     (f - f*) / (f0 - f*), f* the lowest final objective of all runs."""
     import matplotlib
     matplotlib.use("Agg")
@@ -230,6 +242,7 @@ def main(argv=None) -> int:
     c.set_defaults(func=cmd_curves)
     q = sub.add_parser("report")
     q.add_argument("results", type=Path, nargs="+")
+    q.add_argument("--curves", type=Path, default=None, help="curves.json of a curves run, tabled with its plot")
     q.add_argument("--docs", type=Path, default=ROOT / "docs")
     q.set_defaults(func=cmd_report)
     args = p.parse_args(argv)

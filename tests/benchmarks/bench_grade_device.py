@@ -148,11 +148,13 @@ def cmd_report(args) -> int:
     fig.savefig(img, dpi=110)
     lines += ["", f"![seconds per outer iteration](img/{img.name})", ""]
     if args.curves:
-        cur = json.loads(args.curves.read_text())["runs"]
+        cdata = json.loads(args.curves.read_text())
+        cur, cmeta = cdata["runs"], cdata.get("meta", {})
         lines += ["## Objective against time, S = 1, 2, 4, 8", "",
                   f"From `bench_grade_device.py curves` ({args.curves.name}): the same grading with S simulator "
                   "iterations per outer iteration (a backtrack doubles it, accepted checkpoints halve it back), objective at the accepted exact "
-                  "checkpoints against loop time, as the paper's Fig. 10.", "",
+                  "checkpoints against loop time, as the paper's Fig. 10."
+                  + (f" Machine: {cmeta['machine']}; command: `{cmeta['command']}`." if cmeta else ""), "",
                   "| device | S | triangles | loop s | outer iterations done | backtracks | final objective |",
                   "|---|---:|---:|---:|---:|---:|---:|"]
         for r in cur:
@@ -196,7 +198,10 @@ def cmd_curves(args) -> int:
                          "outer_iterations_done": r["outer_iterations_done"], "backtracks": r["backtracks"],
                          "checkpoints": pts})
             print(json.dumps({k: v for k, v in runs[-1].items() if k != "checkpoints"}), flush=True)
-            atomic_write_text(args.out / "curves.json", json.dumps({"runs": runs}, indent=1))
+            meta = {"machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+                               f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'all')}",
+                    "command": " ".join(sys.argv)}
+            atomic_write_text(args.out / "curves.json", json.dumps({"meta": meta, "runs": runs}, indent=1))
     f_star = min(min(f for _, f in r["checkpoints"]) for r in runs)
     fig, ax = plt.subplots(figsize=(7, 4))
     for r in runs:

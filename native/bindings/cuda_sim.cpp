@@ -12,6 +12,7 @@
 #include <string>
 
 #include "sim/simulator.hpp"
+#include "adjoint_gpu.hpp"
 #include "sim_gpu.hpp"
 #include "sim_report.hpp"
 #endif
@@ -192,6 +193,58 @@ void bind_cuda_sim(py::module_& m) {
            py::arg("x"), py::arg("reps") = 200,
            "Device microseconds of each kernel of an iteration (median of graph replays) and the unique bytes "
            "each must move.");
+
+  using seamfit::cuda::AdjointGpu;
+  py::class_<AdjointGpu>(m, "CudaAdjoint",
+                         "The adjoint solve H lam = g on the GPU: preconditioned MINRES over the stored "
+                         "Hessian blocks of a garment state.")
+      .def(py::init([](SimGpu& g) { return new AdjointGpu(g); }), py::arg("gpu"),
+           py::keep_alive<1, 2>())  // the GPU simulator must outlive its adjoint
+      .def("set_state",
+           [](AdjointGpu& a, SimGpu& g, DArr x, bool psd, double shift) {
+             require_x(g, x);
+             require_outside(g, x.data());
+             py::gil_scoped_release nogil;
+             a.set_state(x.data(), psd, shift);
+           },
+           py::arg("gpu"), py::arg("x"), py::arg("psd") = false, py::arg("shift") = 1e-8,
+           "Store H at x (exact or PSD-projected), shifted by shift * mean|diag H|, and its preconditioner.")
+      .def("solve",
+           [](AdjointGpu& a, SimGpu& g, DArr rhs, py::object lam0, double tolerance, int max_iterations,
+              int batch) {
+             require_x(g, rhs);
+             const int n = g.simulator().n_vertices();
+             py::array_t<double> lam({py::ssize_t(n), py::ssize_t(3)});
+             double* lp = lam.mutable_data();
+             if (lam0.is_none()) {
+               std::fill(lp, lp + 3 * size_t(n), 0.0);
+             } else {
+               DArr l0 = lam0.cast<DArr>();
+               require_x(g, l0);
+               std::copy(l0.data(), l0.data() + 3 * size_t(n), lp);
+             }
+             seamfit::cuda::AdjointSettings st;
+             st.tolerance = tolerance;
+             st.max_iterations = max_iterations;
+             st.batch = batch;
+             seamfit::cuda::AdjointReport r;
+             {
+               py::gil_scoped_release nogil;
+               r = a.solve(rhs.data(), lp, st);
+             }
+             py::dict d;
+             d["converged"] = r.converged;
+             d["iterations"] = r.iterations;
+             d["residual"] = r.residual;
+             d["estimate"] = r.estimate;
+             d["shift"] = r.shift;
+             d["seconds"] = r.seconds;
+             d["message"] = r.message;
+             return py::make_tuple(lam, d);
+           },
+           py::arg("gpu"), py::arg("g"), py::arg("lam0") = py::none(), py::arg("tolerance") = 1e-6,
+           py::arg("max_iterations") = 20000, py::arg("batch") = 32,
+           "Solve H lam = g from lam0 (zeros if None); returns (lam, report).");
 #else
   (void)m;
 #endif

@@ -24,6 +24,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "dev_buffer.cuh"
 #include "sim_gpu.hpp"
 #include "sim_iteration.cuh"
 
@@ -33,67 +34,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-void check(cudaError_t e, const char* what) {
-  if (e != cudaSuccess) throw CudaError(std::string("CUDA error in ") + what + ": " + cudaGetErrorString(e));
-}
-#define SF_CUDA(call) check((call), #call)
-
 constexpr int kCtrlThreads = 256;
 
-// Owning device allocation.
-struct DevBuf {
-  void* p = nullptr;
-  size_t bytes = 0;
-  DevBuf() = default;
-  DevBuf(const DevBuf&) = delete;
-  DevBuf& operator=(const DevBuf&) = delete;
-  ~DevBuf() { release(); }
-  void release() {
-    if (p) cudaFree(p);
-    p = nullptr;
-    bytes = 0;
-  }
-  // Keeps the allocation when it is large enough; returns true if it moved.
-  bool reserve(size_t b) {
-    if (b <= bytes && p) return false;
-    release();
-    SF_CUDA(cudaMalloc(&p, std::max<size_t>(b, 16)));
-    bytes = std::max<size_t>(b, 16);
-    return true;
-  }
-  template <class T>
-  T* as() const { return static_cast<T*>(p); }
-};
-
-template <class T>
-void upload(DevBuf& b, const T* h, size_t count, cudaStream_t s) {
-  b.reserve(count * sizeof(T));
-  if (count) SF_CUDA(cudaMemcpyAsync(b.p, h, count * sizeof(T), cudaMemcpyHostToDevice, s));
-}
-
 // ------------------------------------------------------------------ kernels
-
-// Sum of Q values over the block, written to out[0..Q-1] by thread 0.
-template <int Q>
-__device__ void block_sum(double (&v)[Q], double* out) {
-  __shared__ double sh[Q][32];
-  const int lane = threadIdx.x & 31, w = threadIdx.x >> 5, nw = (blockDim.x + 31) >> 5;
-#pragma unroll
-  for (int q = 0; q < Q; ++q)
-    for (int o = 16; o > 0; o >>= 1) v[q] += __shfl_down_sync(0xffffffffu, v[q], o);
-  if (lane == 0)
-#pragma unroll
-    for (int q = 0; q < Q; ++q) sh[q][w] = v[q];
-  __syncthreads();
-  if (w == 0) {
-#pragma unroll
-    for (int q = 0; q < Q; ++q) {
-      double a = lane < nw ? sh[q][lane] : 0.0;
-      for (int o = 16; o > 0; o >>= 1) a += __shfl_down_sync(0xffffffffu, a, o);
-      if (lane == 0) out[q] = a;
-    }
-  }
-}
 
 __device__ unsigned long long global_ns() {
   unsigned long long t;
@@ -796,6 +739,10 @@ KernelTimes SimGpu::time_kernels(const double* x, int reps) {
 }
 
 const sim::Simulator& SimGpu::simulator() const { return *impl_->sim; }
+const void* SimGpu::device_model() const {
+  return opt_.float_rest ? static_cast<const void*>(&impl_->m32) : static_cast<const void*>(&impl_->m64);
+}
+void* SimGpu::stream_handle() const { return impl_->stream; }
 int SimGpu::lanes() const { return impl_->lanes; }
 
 std::string SimGpu::device_name() const {

@@ -67,6 +67,13 @@ class SimGpu {
   std::string device_name() const;
   size_t device_bytes() const;
 
+  // For the CUDA code beside the simulator (the adjoint, adjoint_gpu.cu),
+  // opaque so that this header stays free of CUDA types: the model on the
+  // device (a DevModel<float> when options().float_rest, else DevModel<double>)
+  // and the stream (a cudaStream_t) its kernels run on.
+  const void* device_model() const;
+  void* stream_handle() const;
+
   struct Impl;
 
  private:

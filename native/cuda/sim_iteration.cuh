@@ -130,41 +130,65 @@ SF_HD void eval_vertex(const DevModel<R>& m, const double* x, int v, bool known,
   f = -g;
 }
 
-// (d2E/dx2) vin at vertex v, exact or PSD-projected, by one thread: the
-// product of Simulator::hess_vec term for term (each pair's Hessian block is
-// evaluated at both of its ends, a gather instead of the CPU's scatter).
+// The Hessian's block of vertex v that does not couple it to other vertices
+// (besides the springs' and the bending's share of the diagonal): the sewing
+// springs' diagonal, sticking and the barrier, exact or PSD-projected.
 template <class R>
-SF_HD Vec3 hess_vec_vertex(const DevModel<R>& m, const double* x, const double* vin, int v, bool psd) {
-  const Vec3 vv = load3(vin, v);
-  Vec3 r = make_vec3(0, 0, 0);
-  if (m.Y > 0) {
-    for (int k = m.vs_ptr[v]; k < m.vs_ptr[v + 1]; ++k) {
-      const int code = m.vs_idx[k], sp = code >> 1, i = m.spring_v[2 * sp], j = m.spring_v[2 * sp + 1];
-      const Sym3 He = sim::patch_spring_hess(load3(x, i), load3(x, j), double(m.rest_L[sp]),
-                                             double(m.shirring[sp]), m.Y, psd);
-      const Vec3 ge = He * (load3(vin, i) - load3(vin, j));
-      if (code & 1) r -= ge; else r += ge;
-    }
-  }
-  if (m.Ys > 0)
-    for (int k = m.vw_ptr[v]; k < m.vw_ptr[v + 1]; ++k) r += m.Ys * (vv - load3(vin, m.vw_idx[k]));
-  if (m.kb > 0)
-    for (int k = m.nbr_ptr[v]; k < m.nbr_ptr[v + 1]; ++k) r += (m.kb * double(m.Q[k])) * load3(vin, m.nbr_idx[k]);
-  if (m.stick && m.stick_k[v] > 0) r += m.stick_k[v] * vv;
+SF_HD Sym3 own_hess_block(const DevModel<R>& m, const double* x, int v, bool psd) {
+  Sym3 H = sim::sym3_zero();
+  if (m.Ys > 0) H += sim::sym3_identity(m.Ys * (m.vw_ptr[v + 1] - m.vw_ptr[v]));
+  if (m.stick && m.stick_k[v] > 0) H += sim::sym3_identity(m.stick_k[v]);
   if (m.bar) {
     const Vec3 xv = load3(x, v);
     const SdfSample s = sim::barrier_field(m.sdf, m.smooth != 0, xv);
     if (s.phi > 0) {
       const double c = double(m.barrier_c[v]);
       if (psd) {
-        r += sim::barrier_hess_psd(c, m.dhat, s) * vv;
+        H += sim::barrier_hess_psd(c, m.dhat, s);
       } else {
         const Sym3 Hphi = m.smooth ? sim::sdf_sample_smooth<true>(m.sdf, xv).hess : sim::sdf_hessian(m.sdf, xv);
-        r += sim::barrier_hess(c, m.dhat, s, Hphi) * vv;
+        H += sim::barrier_hess(c, m.dhat, s, Hphi);
       }
     }
   }
+  return H;
+}
+
+// (d2E/dx2) vin at vertex v as a gather: own * vin_v, each incident spring's
+// block spring_block(sp) times the difference of its ends (evaluated at both
+// ends: no scatter), the sewing springs' couplings and the bending matrix Q.
+// spring_block computes the block or loads a stored one (the GPU adjoint).
+template <class R, class SpringBlock>
+SF_HD Vec3 hess_vec_gather(const DevModel<R>& m, const double* vin, int v, const SpringBlock& spring_block,
+                           const Sym3& own) {
+  Vec3 r = own * load3(vin, v);
+  if (m.Y > 0) {
+    for (int k = m.vs_ptr[v]; k < m.vs_ptr[v + 1]; ++k) {
+      const int code = m.vs_idx[k], sp = code >> 1, i = m.spring_v[2 * sp], j = m.spring_v[2 * sp + 1];
+      const Vec3 ge = spring_block(sp) * (load3(vin, i) - load3(vin, j));
+      if (code & 1) r -= ge; else r += ge;
+    }
+  }
+  if (m.Ys > 0)
+    for (int k = m.vw_ptr[v]; k < m.vw_ptr[v + 1]; ++k) r -= m.Ys * load3(vin, m.vw_idx[k]);
+  if (m.kb > 0)
+    for (int k = m.nbr_ptr[v]; k < m.nbr_ptr[v + 1]; ++k) r += (m.kb * double(m.Q[k])) * load3(vin, m.nbr_idx[k]);
   return r;
+}
+
+// The Hessian block of spring sp at x, exact or PSD-projected.
+template <class R>
+SF_HD Sym3 spring_hess_block(const DevModel<R>& m, const double* x, int sp, bool psd) {
+  return sim::patch_spring_hess(load3(x, m.spring_v[2 * sp]), load3(x, m.spring_v[2 * sp + 1]),
+                                double(m.rest_L[sp]), double(m.shirring[sp]), m.Y, psd);
+}
+
+// (d2E/dx2) vin at vertex v, exact or PSD-projected, by one thread: the
+// product of Simulator::hess_vec term for term, every block computed here.
+template <class R>
+SF_HD Vec3 hess_vec_vertex(const DevModel<R>& m, const double* x, const double* vin, int v, bool psd) {
+  return hess_vec_gather(
+      m, vin, v, [&](int sp) { return spring_hess_block(m, x, sp, psd); }, own_hess_block(m, x, v, psd));
 }
 
 // ---------------------------------------------------------------------------

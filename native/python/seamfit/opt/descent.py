@@ -124,6 +124,6 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
                      for i, fs, fg in checkpoints],
         cost_evaluations=dict(objective.evaluations), history=hist,
         seconds_loop=time.perf_counter() - t_loop,
-        details={"seconds_loop_split": {**split, "factorizations": ctx.adjoint.seconds_factorize},
-                 "adjoint": {"factorizations": ctx.adjoint.factorizations,
-                             "lu_fallbacks": ctx.adjoint.lu_fallbacks}})
+        details={"seconds_loop_split": {**split, "factorizations": ctx.adjoint.seconds_factorize,
+                                        "adjoint_solves": ctx.adjoint.seconds_solve},
+                 "adjoint": ctx.adjoint.stats()})

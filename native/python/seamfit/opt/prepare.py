@@ -124,7 +124,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     check_pattern(base_pattern)
     tell(stage="mesh")
     mesh = build_sewn_mesh(base_pattern, edge_length_cm=settings.edge_length_cm)
-    # Where the simulations run; the adjoint gradient and the costs stay on the CPU.
+    # Where the simulations and the adjoint solve run; the costs and df/dp stay on the CPU.
     # A GPU pays only on large garments (seamfit.device.GPU_MIN_VERTICES).
     device = resolve_device(getattr(settings, "device", "auto"), problem_size=int(mesh.n_vertices))
     if device != sim_settings.device:
@@ -153,7 +153,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         regs.add_to_preconditioner(seam.gauss_newton())
     costs = CostSet(mesh, xbar, strengths, target_sdf=target_sdf, base_sdf=base_sdf, xtilde=xtilde)
     sim = Simulator(mesh, target_sdf, fabric, sim_settings)
-    adjoint = AdjointSolver(sim)
+    adjoint = AdjointSolver(sim, device=device)
     ctx = GradeContext(
         base_pattern=base_pattern, base_body=base_body, target_body=target_body, settings=settings,
         strengths=strengths, mesh=mesh, base_sdf=base_sdf, target_sdf=target_sdf, xbar=xbar, xtilde=xtilde,

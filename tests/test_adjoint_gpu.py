@@ -1,0 +1,125 @@
+"""The adjoint solve H lam = dF/dx on the GPU (preconditioned MINRES over the stored
+Hessian blocks, seamfit._core.CudaAdjoint) against the CPU's direct LDL^T of the same
+shifted matrix, at a real grading state: the sample pencil skirt graded from size 6
+to size 10, its garment settled on the target body.
+
+The GPU cases run once per GPU device (none without one); the refusal runs everywhere.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from seamfit._native import core
+from seamfit.errors import DeviceError, SolveError
+from seamfit.opt.adjoint import AdjointSolver
+
+GPU_DEVICES = ["cuda"] if core().cuda_device_count() > 0 else []
+SAMPLES = Path(__file__).resolve().parents[1] / "sample_files"
+
+
+@pytest.fixture(scope="module")
+def state():
+    """The grading context (4 cm mesh, GPU simulations) and an exact target drape."""
+    from seamfit.body import load_body
+    from seamfit.opt.grade import GradeSettings
+    from seamfit.opt.prepare import prepare
+    from seamfit.pattern import load_pattern
+
+    settings = GradeSettings(edge_length_cm=4.0, sdf_spacing=0.005, device="cuda", evaluate_base_pattern=False)
+    ctx = prepare(load_pattern(SAMPLES / "patterns/gc_pencil_skirt/size06/pattern.json"),
+                  load_body(SAMPLES / "bodies/women_size06.obj"), load_body(SAMPLES / "bodies/women_size10.obj"),
+                  settings)
+    res = ctx.exact(ctx.param.theta_bar, ctx.xtilde, "test")
+    assert res.converged
+    p = ctx.param.pattern(ctx.param.theta_bar)
+    _, _, gx, gp = ctx.costs.evaluate(res.x, p)
+    return ctx, res.x, np.asarray(gx, dtype=float), np.asarray(gp, dtype=float)
+
+
+def _gradients(ctx, x, gx, gp, **gpu_options):
+    cpu = AdjointSolver(ctx.sim, device="cpu")
+    gpu = AdjointSolver(ctx.sim, device="cuda", **gpu_options)
+    return cpu, gpu, cpu.pattern_gradient(x, gx, gp), gpu.pattern_gradient(x, gx, gp)
+
+
+@pytest.mark.parametrize("device", GPU_DEVICES)
+@pytest.mark.parametrize("psd", [False, True])
+def test_gpu_adjoint_matches_the_direct_solve(state, device, psd):
+    """lam solves the shifted system to the asked tolerance (checked with the CPU's
+    own Hessian product), and the pattern gradient it gives matches the direct
+    solve's to 1e-4 of its norm."""
+    ctx, x, gx, gp = state
+    cpu = AdjointSolver(ctx.sim, device="cpu", psd=psd)
+    gpu = AdjointSolver(ctx.sim, device=device, psd=psd, gpu_tolerance=1e-8)
+    cpu.factorize(x)
+    gpu.factorize(x)
+    lam_cpu = cpu.solve(gx)
+    lam_gpu = gpu.solve(gx)
+    rep = gpu.last_report
+    assert rep["converged"], rep["message"]
+    assert gpu.gpu_fallbacks == 0
+    # The shift is the CPU's: eps * mean|diag H|.
+    H = ctx.sim.hessian(x, psd=psd)
+    shift = 1e-8 * float(np.mean(np.abs(H.diagonal())))
+    assert rep["shift"] == pytest.approx(shift, rel=1e-9)
+    # The true residual, with the CPU's Hessian.
+    r = gx.reshape(-1) - (H @ lam_gpu + shift * lam_gpu)
+    assert np.linalg.norm(r) <= 1e-6 * np.linalg.norm(gx), np.linalg.norm(r) / np.linalg.norm(gx)
+    assert rep["residual"] == pytest.approx(np.linalg.norm(r) / np.linalg.norm(gx), rel=1e-2, abs=1e-12)
+    g_cpu = gp + ctx.sim.dfdp_T(x, lam_cpu.reshape(-1, 3))
+    g_gpu = gp + ctx.sim.dfdp_T(x, lam_gpu.reshape(-1, 3))
+    err = np.linalg.norm(g_gpu - g_cpu) / np.linalg.norm(g_cpu)
+    assert err <= 1e-4, err
+
+
+@pytest.mark.parametrize("device", GPU_DEVICES)
+def test_gpu_adjoint_warm_start_and_determinism(state, device):
+    """A second solve starts from the last lam and needs (almost) no iterations; the
+    same solve twice gives the same bits (sums in a fixed order)."""
+    ctx, x, gx, gp = state
+    gpu = AdjointSolver(ctx.sim, device=device)
+    gpu.factorize(x)
+    lam1 = gpu.solve(gx)
+    cold = gpu.last_report["iterations"]
+    assert cold > 0
+    lam2 = gpu.solve(gx)
+    assert gpu.last_report["iterations"] <= 1
+    again = AdjointSolver(ctx.sim, device=device)
+    again.factorize(x)
+    assert np.array_equal(again.solve(gx), lam1)
+    assert np.allclose(lam2, lam1, rtol=0, atol=1e-6 * np.abs(lam1).max())
+
+
+@pytest.mark.parametrize("device", GPU_DEVICES)
+def test_gpu_adjoint_out_of_budget_falls_back_to_the_direct_solve(state, device):
+    """MINRES stopped by its iteration budget says so, and the gradient is then the
+    CPU's direct solve: counted, never silently inexact."""
+    ctx, x, gx, gp = state
+    cpu = AdjointSolver(ctx.sim, device="cpu")
+    gpu = AdjointSolver(ctx.sim, device=device, gpu_max_iterations=3)
+    g_cpu = cpu.pattern_gradient(x, gx, gp)
+    g_gpu = gpu.pattern_gradient(x, gx, gp)
+    assert "iteration budget" in gpu.last_report["message"] and not gpu.last_report["converged"]
+    assert gpu.last_report["iterations"] == 3
+    assert gpu.gpu_fallbacks == 1
+    assert np.allclose(g_gpu, g_cpu, rtol=1e-12, atol=1e-12 * np.abs(g_cpu).max())
+    assert gpu.stats()["gpu_fallbacks"] == 1
+
+
+def test_cuda_adjoint_without_a_gpu_fails_clearly():
+    """Asking for the GPU adjoint where there is none raises DeviceError with the reason."""
+    from seamfit.sim import Fabric, SimSettings, Simulator
+
+    from sim_helpers import flat_sheet
+    with pytest.raises(SolveError, match="unknown adjoint device"):
+        AdjointSolver(None, device="tpu")
+    if GPU_DEVICES:
+        return
+    mesh = flat_sheet(4, 4)
+    sim = Simulator(mesh, None, Fabric(), SimSettings())
+    adj = AdjointSolver(sim, device="cuda")
+    with pytest.raises(DeviceError, match="cuda|CUDA"):
+        adj.factorize(mesh.x0)

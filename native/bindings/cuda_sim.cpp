@@ -234,6 +234,7 @@ void bind_cuda_sim(py::module_& m) {
              }
              py::dict d;
              d["converged"] = r.converged;
+             d["status"] = r.status;
              d["iterations"] = r.iterations;
              d["residual"] = r.residual;
              d["estimate"] = r.estimate;

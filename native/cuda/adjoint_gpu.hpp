@@ -22,6 +22,7 @@ struct AdjointSettings {
 
 struct AdjointReport {
   bool converged = false;
+  std::string status;        // "converged", "budget" (iteration budget) or "breakdown"
   int iterations = 0;
   double residual = 0;       // true |g - H lam| / |g| at the returned lam
   double estimate = 0;       // MINRES's |r|_{M^-1} / |g|_{M^-1}

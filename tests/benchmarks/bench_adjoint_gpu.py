@@ -4,6 +4,9 @@ graded to size 10, the unchanged pattern settled on the target body) per mesh si
 
     # on a machine with a GPU:
     PYTHONPATH=native/python python tests/benchmarks/bench_adjoint_gpu.py run --out OUT
+    # MINRES iterations alone at one size (plain garment state, random g), for timing
+    # per iteration and for a profiler (ncu --clock-control none ... ncu-target):
+    PYTHONPATH=native/python python tests/benchmarks/bench_adjoint_gpu.py ncu-target --edge 0.45
     # docs/adjoint_gpu_results.md from one or more results.json:
     PYTHONPATH=native/python python tests/benchmarks/bench_adjoint_gpu.py report OUT/results.json
 
@@ -116,6 +119,32 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_ncu_target(args) -> int:
+    """MINRES iterations at a garment state of one size, no base drape needed: the
+    pencil skirt from its placement, settled for a while on the size 10 body."""
+    import numpy as np
+
+    from seamfit._native import core
+    from seamfit.body import build_sdf, load_body
+    from seamfit.mesh import build_sewn_mesh
+    from seamfit.pattern import load_pattern
+    from seamfit.sim import Fabric, SimSettings, Simulator
+
+    mesh = build_sewn_mesh(load_pattern(PATTERN), edge_length_cm=args.edge)
+    sim = Simulator(mesh, build_sdf(load_body(B1)), Fabric(), SimSettings(device="cuda"))
+    res = sim.solve(np.asarray(mesh.x0, dtype=float), max_iterations=args.settle)
+    gpu = sim.cuda()._gpu
+    adj = core().CudaAdjoint(gpu)
+    adj.set_state(gpu, res.x, False, 1e-8)
+    g = np.random.default_rng(0).standard_normal(res.x.shape)
+    adj.solve(gpu, g, None, 0.0, 64)  # warm-up (graph capture)
+    _, rep = adj.solve(gpu, g, None, 0.0, args.iterations)
+    out = {"triangles": int(len(mesh.triangles)), "vertices": int(mesh.n_vertices), "iterations": rep["iterations"],
+           "us_per_iteration": 1e6 * rep["seconds"] / max(rep["iterations"], 1)}
+    print(json.dumps(out), flush=True)
+    return 0
+
+
 def cmd_report(args) -> int:
     rows, metas = [], []
     for p in args.results:
@@ -157,11 +186,15 @@ def main(argv=None) -> int:
     r.add_argument("--tolerances", type=float, nargs="+", default=[1e-4, 1e-6, 1e-8])
     r.add_argument("--max-iterations", type=int, default=50000)
     r.add_argument("--stage-seconds", type=float, default=0.0, help="time budget per drape stage (0: none)")
+    t = sub.add_parser("ncu-target")
+    t.add_argument("--edge", type=float, default=0.45)
+    t.add_argument("--settle", type=int, default=2000, help="simulator iterations before the solve")
+    t.add_argument("--iterations", type=int, default=2000)
     q = sub.add_parser("report")
     q.add_argument("results", type=Path, nargs="+")
     q.add_argument("--docs", type=Path, default=ROOT / "docs")
     args = ap.parse_args(argv)
-    return cmd_run(args) if args.cmd == "run" else cmd_report(args)
+    return {"run": cmd_run, "ncu-target": cmd_ncu_target, "report": cmd_report}[args.cmd](args)
 
 
 if __name__ == "__main__":

@@ -50,7 +50,7 @@ from ..errors import SolveError
 DEFAULT_SHIFT = 1e-8
 # MINRES on the GPU: |r|_{M^-1} <= tol |g|_{M^-1}; docs/gpu.md has the gradient error
 # against the direct solve at each tolerance.
-GPU_TOLERANCE = 1e-6
+GPU_TOLERANCE = 1e-8
 GPU_MAX_ITERATIONS = 10000
 
 

@@ -145,6 +145,30 @@ def cmd_ncu_target(args) -> int:
     return 0
 
 
+def ncu_table(path: Path) -> list[dict]:
+    """Per kernel, the medians of ncu's --csv metrics."""
+    import csv
+    import statistics
+    text = [ln for ln in path.read_text().splitlines() if ln.startswith('"')]
+    per: dict = {}
+    for r in csv.DictReader(text):
+        name = r["Kernel Name"].split("(")[0].split("::")[-1].split("<")[0]
+        k = per.setdefault(name, {"grid": r["Grid Size"].split(",")[0].strip("( "),
+                                  "block": r["Block Size"].split(",")[0].strip("( ")})
+        k.setdefault(r["Metric Name"], []).append(float(r["Metric Value"].replace(",", "")))
+    out = []
+    for name, k in per.items():
+        med = {m: statistics.median(v) for m, v in k.items() if isinstance(v, list)}
+        out.append({"kernel": name, "grid": k["grid"], "block": k["block"],
+                    "time_us": med["gpu__time_duration.sum"] / 1e3,
+                    "dram_read_mb": med["dram__bytes_read.sum"] / 1e6,
+                    "dram_pct": med["dram__throughput.avg.pct_of_peak_sustained_elapsed"],
+                    "l2_mb": med["lts__t_bytes.sum"] / 1e6,
+                    "l2_pct": med["lts__throughput.avg.pct_of_peak_sustained_elapsed"],
+                    "warps_pct": med["sm__warps_active.avg.pct_of_peak_sustained_active"]})
+    return out
+
+
 def cmd_report(args) -> int:
     rows, metas = [], []
     for p in args.results:
@@ -171,8 +195,30 @@ def cmd_report(args) -> int:
                          f"{g['tolerance']:.0e} | {g['setup_s']:.3f} + {g['solve_s']:.3f} s | {g['iterations']:,}"
                          f"{'' if g['converged'] else ' (budget)'} | {g['us_per_iteration']:.1f} | "
                          f"{g['residual']:.1e} | {g['gradient_error']:.1e} | {g['warm_iterations']:,} |")
+    sizes = []
+    if args.sizes:
+        sizes = [json.loads(ln) for ln in args.sizes.read_text().splitlines() if ln.startswith("{")]
+        lines += ["", "## Time per MINRES iteration against size", "",
+                  "`bench_adjoint_gpu.py ncu-target --edge E` (2,000 iterations at a settled state, "
+                  "one graph launch per 32 iterations, the host reading the state between launches):", "",
+                  "| triangles | vertices | us per iteration |", "|---:|---:|---:|"]
+        lines += [f"| {z['triangles']:,} | {z['vertices']:,} | {z['us_per_iteration']:.1f} |"
+                  for z in sorted(sizes, key=lambda z: z["triangles"])]
+    kernels = ncu_table(args.ncu) if args.ncu else []
+    if kernels:
+        lines += ["", "## Kernels (Nsight Compute)", "",
+                  f"`ncu --clock-control none` on `ncu-target --edge 0.45` ({args.ncu.name}); medians over the "
+                  "profiled launches. ncu flushes the caches between its passes, so DRAM bytes are cold-cache "
+                  "figures (in the solve the working set stays in the 50 MB L2).", "",
+                  "| kernel | grid x block | time us | DRAM read MB | DRAM % of peak | L2 MB | L2 % of peak "
+                  "| warps active |", "|---|---|---:|---:|---:|---:|---:|---:|"]
+        for k in kernels:
+            lines.append(f"| {k['kernel']} | {k['grid']} x {k['block']} | {k['time_us']:.1f} | "
+                         f"{k['dram_read_mb']:.2f} | {k['dram_pct']:.0f} % | {k['l2_mb']:.1f} | {k['l2_pct']:.0f} % | "
+                         f"{k['warps_pct']:.0f} % |")
     atomic_write_text(args.docs / "adjoint_gpu_results.md", "\n".join(lines) + "\n")
-    atomic_write_text(args.docs / "adjoint_gpu_results.json", json.dumps({"metas": metas, "rows": rows}, indent=1))
+    atomic_write_text(args.docs / "adjoint_gpu_results.json",
+                      json.dumps({"metas": metas, "rows": rows, "sizes": sizes, "kernels": kernels}, indent=1))
     print("\n".join(lines))
     return 0
 
@@ -193,6 +239,8 @@ def main(argv=None) -> int:
     q = sub.add_parser("report")
     q.add_argument("results", type=Path, nargs="+")
     q.add_argument("--docs", type=Path, default=ROOT / "docs")
+    q.add_argument("--sizes", type=Path, help="the JSON lines of ncu-target runs (time per iteration)")
+    q.add_argument("--ncu", type=Path, help="ncu --csv output of an ncu-target run")
     args = ap.parse_args(argv)
     return {"run": cmd_run, "ncu-target": cmd_ncu_target, "report": cmd_report}[args.cmd](args)
 

@@ -111,16 +111,25 @@ def cmd_report(args) -> int:
              f"{metas[0]['max_iterations']} outer iterations, an exact checkpoint every "
              f"{metas[0]['checkpoint_every']}). Machines: "
              + "; ".join(f"{m['machine']}, GPU {m['gpu']}" for m in metas) + ".", "",
+             "Gradient: costs, adjoint solve and df/dp; adjoint: on the CPU the sparse LDL^T "
+             "factorizations and solves, on the GPU MINRES (with its block setup); MINRES iterations per "
+             "solve, and how many solves stopped at the iteration budget at an inexact state (kept) or "
+             "fell back to the CPU at an equilibrium state.", "",
              "| triangles | device | base drape s | loop s | per outer iteration s | simulation s | gradient s "
-             "(factorizations) | objective s | outer iterations | objective reduction | pattern difference mm |",
-             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "| adjoint s | MINRES iterations per solve (kept at budget / fallbacks) | objective s "
+             "| outer iterations | objective reduction | pattern difference mm |",
+             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in sorted(ok, key=lambda r: (r["triangles"], r["device"])):
         sp = r["split"]
         bd = r["base_drape"]
+        adj = r.get("adjoint") or {}
+        minres = (f"{adj['minres_iterations'] / max(adj['solves'], 1):,.0f} ({adj.get('truncated', 0)} / "
+                  f"{adj.get('gpu_fallbacks', 0)})" if "minres_iterations" in adj else "-")
         lines.append(
             f"| {r['triangles']:,} | {r['device']} | {'cached' if bd.get('cached') else format(bd['seconds'], '.1f')} | "
             f"{r['seconds_loop']:.1f} | {r['seconds_per_iteration']:.3f} | {sp['simulation']:.1f} | "
-            f"{sp['gradient']:.1f} ({sp['factorizations']:.1f}) | {sp['objective']:.1f} | "
+            f"{sp['gradient']:.1f} | {sp['factorizations'] + sp.get('adjoint_solves', 0.0):.1f} | {minres} | "
+            f"{sp['objective']:.1f} | "
             f"{r['outer_iterations_done']} | {100 * r['objective_reduction']:.1f} % | "
             f"{r.get('pattern_difference_mm', float('nan')):.2f} |")
     for r in runs:
@@ -135,7 +144,7 @@ def cmd_report(args) -> int:
         ax.plot(tri, [r["split"]["simulation"] / max(r["outer_iterations_done"], 1) for r in rr], mk + "-",
                 label=f"{dev}: simulation")
         ax.plot(tri, [r["split"]["gradient"] / max(r["outer_iterations_done"], 1) for r in rr], mk + "--",
-                label=f"{dev}: gradient (CPU)")
+                label=f"{dev}: gradient")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("triangles")
@@ -149,12 +158,15 @@ def cmd_report(args) -> int:
     lines += ["", f"![seconds per outer iteration](img/{img.name})", ""]
     if args.curves:
         cdata = json.loads(args.curves.read_text())
-        cur, cmeta = cdata["runs"], cdata.get("meta", {})
+        cur = cdata["runs"]
+        plot_curves(cur, args.docs)
+        cmetas = cdata.get("metas") or ([cdata["meta"]] if "meta" in cdata else [])
         lines += ["## Objective against time, S = 1, 2, 4, 8", "",
                   f"From `bench_grade_device.py curves` ({args.curves.name}): the same grading with S simulator "
                   "iterations per outer iteration (a backtrack doubles it, accepted checkpoints halve it back), objective at the accepted exact "
                   "checkpoints against loop time, as the paper's Fig. 10."
-                  + (f" Machine: {cmeta['machine']}; command: `{cmeta['command']}`." if cmeta else ""), "",
+                  + "".join(f" {', '.join(m.get('devices', []) or ['cpu'])} on {m['machine']}"
+                            f"{', ' + m['gpu'] if m.get('gpu') else ''}: `{m['command']}`." for m in cmetas), "",
                   "| device | S | triangles | loop s | outer iterations done | backtracks | final objective |",
                   "|---|---:|---:|---:|---:|---:|---:|"]
         for r in cur:
@@ -166,19 +178,49 @@ def cmd_report(args) -> int:
     return 0
 
 
+def plot_curves(runs, docs: Path) -> Path:
+    """The paper's Fig. 10 for these runs: (f - f*) / (f0 - f*) at the accepted checkpoints
+    against loop time (log axes: the devices are an order of magnitude apart)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    f_star = min(min(f for _, f in r["checkpoints"]) for r in runs)
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for r in runs:
+        pts = [(t, f) for t, f in r["checkpoints"] if t > 0.05]  # the start state sits at t = 0
+        f0 = r["checkpoints"][0][1]
+        err = [max((f - f_star) / (f0 - f_star), 1e-6) for _, f in pts]
+        ax.plot([t for t, _ in pts], err, "o-" if r["device"] == "cpu" else "s--", ms=3,
+                label=f"{r['device']}, S = {r['S']}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("seconds in the loop")
+    ax.set_ylabel("(f - f*) / (f0 - f*)")
+    ax.set_title(f"Objective against time, {runs[0]['triangles']:,} triangles")
+    ax.legend(ncol=2, fontsize=8)
+    fig.tight_layout()
+    img = docs / "img" / "grade_s_curves.png"
+    img.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(img, dpi=110)
+    plt.close(fig)
+    return img
+
+
 def cmd_curves(args) -> int:
     """Objective at the exact checkpoints against loop time, one run per S (a backtrack
     doubles it and accepted checkpoints halve it back, as in Algorithm 1), plotted as the paper's relative error
     (f - f*) / (f0 - f*), f* the lowest final objective of all runs."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from seamfit.body import load_body
     from seamfit.opt.grade import GradeSettings, grade
     from seamfit.pattern import load_pattern
 
     args.out.mkdir(parents=True, exist_ok=True)
-    runs = []
+    runs, metas = [], []
+    for prev in args.merge or []:  # runs measured elsewhere (e.g. the CPU half on another machine)
+        d = json.loads(prev.read_text())
+        runs += d["runs"]
+        metas += d.get("metas", [d["meta"]] if "meta" in d else [])
     for device in args.devices:
         for S in args.S:
             settings = GradeSettings(edge_length_cm=args.edge, max_outer_iterations=args.max_iterations,
@@ -200,24 +242,16 @@ def cmd_curves(args) -> int:
             print(json.dumps({k: v for k, v in runs[-1].items() if k != "checkpoints"}), flush=True)
             meta = {"machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
                                f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'all')}",
-                    "command": " ".join(sys.argv)}
-            atomic_write_text(args.out / "curves.json", json.dumps({"meta": meta, "runs": runs}, indent=1))
-    f_star = min(min(f for _, f in r["checkpoints"]) for r in runs)
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for r in runs:
-        t = [p[0] for p in r["checkpoints"]]
-        f0 = r["checkpoints"][0][1]
-        err = [max((f - f_star) / (f0 - f_star), 1e-6) for _, f in r["checkpoints"]]
-        ax.plot(t, err, "o-" if r["device"] == "cpu" else "s--", ms=3, label=f"{r['device']}, S = {r['S']}")
-    ax.set_yscale("log")
-    ax.set_xlabel("seconds in the loop")
-    ax.set_ylabel("(f - f*) / (f0 - f*)")
-    ax.set_title(f"Objective against time, {runs[0]['triangles']:,} triangles")
-    ax.legend()
-    fig.tight_layout()
-    img = args.docs / "img" / "grade_s_curves.png"
-    img.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(img, dpi=110)
+                    "devices": args.devices, "command": " ".join(sys.argv)}
+            try:
+                from seamfit import _native
+                if "cuda" in args.devices:
+                    meta["gpu"] = str(_native.core().cuda_device_name(0))
+            except Exception:
+                pass
+            atomic_write_text(args.out / "curves.json",
+                              json.dumps({"metas": metas + [meta], "runs": runs}, indent=1))
+    img = plot_curves(runs, args.docs)
     print(f"wrote {args.out / 'curves.json'} and {img}")
     return 0
 
@@ -244,6 +278,7 @@ def main(argv=None) -> int:
     c.add_argument("--max-iterations", type=int, default=64)
     c.add_argument("--checkpoint-every", type=int, default=8)
     c.add_argument("--docs", type=Path, default=ROOT / "docs")
+    c.add_argument("--merge", type=Path, nargs="*", help="curves.json files whose runs join the plot")
     c.set_defaults(func=cmd_curves)
     q = sub.add_parser("report")
     q.add_argument("results", type=Path, nargs="+")

@@ -94,6 +94,24 @@ def test_gpu_adjoint_warm_start_and_determinism(state, device):
 
 
 @pytest.mark.parametrize("device", GPU_DEVICES)
+def test_persistent_kernel_and_kernel_graph_agree(state, device):
+    """The one-launch persistent MINRES and the graph of four kernels per iteration run the
+    same recurrence (sums in another order): about the same iteration count, and pattern
+    gradients equal to 1e-7 of their norm."""
+    ctx, x, gx, gp = state
+    gpu = ctx.sim.cuda()._gpu
+    adj = core().CudaAdjoint(gpu)
+    adj.set_state(gpu, x, False, 1e-8)
+    lam_p, rep_p = adj.solve(gpu, gx, None, 1e-10, 20000, persistent=True)
+    lam_g, rep_g = adj.solve(gpu, gx, None, 1e-10, 20000, persistent=False)
+    assert rep_p["converged"] and rep_g["converged"]
+    assert abs(rep_p["iterations"] - rep_g["iterations"]) <= max(5, rep_g["iterations"] // 100)
+    g_p = gp + ctx.sim.dfdp_T(x, lam_p)
+    g_g = gp + ctx.sim.dfdp_T(x, lam_g)
+    assert np.linalg.norm(g_p - g_g) <= 1e-7 * np.linalg.norm(g_g)
+
+
+@pytest.mark.parametrize("device", GPU_DEVICES)
 def test_gpu_adjoint_out_of_budget_falls_back_to_the_direct_solve(state, device):
     """MINRES stopped by its iteration budget says so, and the gradient is then the
     CPU's direct solve: counted, never silently inexact."""

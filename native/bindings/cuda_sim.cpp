@@ -211,7 +211,7 @@ void bind_cuda_sim(py::module_& m) {
            "Store H at x (exact or PSD-projected), shifted by shift * mean|diag H|, and its preconditioner.")
       .def("solve",
            [](AdjointGpu& a, SimGpu& g, DArr rhs, py::object lam0, double tolerance, int max_iterations,
-              int batch) {
+              int batch, bool persistent) {
              require_x(g, rhs);
              const int n = g.simulator().n_vertices();
              py::array_t<double> lam({py::ssize_t(n), py::ssize_t(3)});
@@ -227,6 +227,7 @@ void bind_cuda_sim(py::module_& m) {
              st.tolerance = tolerance;
              st.max_iterations = max_iterations;
              st.batch = batch;
+             st.persistent = persistent;
              seamfit::cuda::AdjointReport r;
              {
                py::gil_scoped_release nogil;
@@ -244,7 +245,7 @@ void bind_cuda_sim(py::module_& m) {
              return py::make_tuple(lam, d);
            },
            py::arg("gpu"), py::arg("g"), py::arg("lam0") = py::none(), py::arg("tolerance") = 1e-6,
-           py::arg("max_iterations") = 20000, py::arg("batch") = 32,
+           py::arg("max_iterations") = 20000, py::arg("batch") = 32, py::arg("persistent") = true,
            "Solve H lam = g from lam0 (zeros if None); returns (lam, report).");
 #else
   (void)m;

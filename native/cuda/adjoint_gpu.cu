@@ -8,6 +8,7 @@
 // reduction of alfa, the Lanczos vector update with the preconditioner, and
 // the reduction of beta with the scalar rotation (sim/minres.hpp). Sums are
 // reduced in a fixed order, so a solve is deterministic run to run.
+#include <cooperative_groups.h>
 #include <cuda_runtime.h>
 
 #pragma nv_diag_suppress 20012
@@ -30,6 +31,7 @@ using sim::MinresState;
 namespace {
 
 constexpr int kRedThreads = 256;
+constexpr int kPersistentThreads = 128;
 
 // Everything the iteration kernels touch besides the model (3n doubles each
 // unless said otherwise).
@@ -50,7 +52,8 @@ __device__ void reduce_fixed(const double* part, int nb, double (&out)[Q]) {
   const int t = threadIdx.x, nt = blockDim.x;
   for (int q = 0; q < Q; ++q) {
     double a = 0;
-    for (int b = t; b < nb; b += nt) a += part[Q * b + q];
+    // __ldcg: other blocks wrote these; read them from L2, never a stale L1 line.
+    for (int b = t; b < nb; b += nt) a += __ldcg(part + Q * b + q);
     sh[q][t] = a;
   }
   __syncthreads();
@@ -166,24 +169,40 @@ __global__ void __launch_bounds__(kRedThreads) k_start(Vecs a, int nb, double to
   }
 }
 
-// The last iteration's lam update, then t = H v - (beta/oldb) r1 with
-// v = y / beta. Partial: v.t.
+// The two vector phases of a MINRES iteration at vertex v (sim/minres.hpp),
+// shared by the kernel-per-phase path and the persistent kernel.
+//
+// Phase A: the last iteration's pending lam update, then t = H v - (beta/oldb) r1
+// with v = y / beta. Returns v.t (alfa's share).
+template <class R>
+__device__ double lanczos_vertex(const DevModel<R>& m, const Vecs& a, const MinresState& s, int v) {
+  if (s.pending) apply_update(a, s, v);
+  const double ib = 1.0 / s.beta;
+  const Vec3 vn = ib * load3(a.y, v);
+  Vec3 t = ib * stored_hess_vec(m, a, a.y, v);
+  if (s.oldb > 0) t -= (s.beta / s.oldb) * load3(a.r1, v);
+  store3(a.v, v, vn);
+  store3(a.t, v, t);
+  return dot(vn, t);
+}
+
+// Phase B: t -= (alfa/beta) r2; r1 = r2; r2 = t; y = M^-1 r2. Returns r2.y.
+__device__ double precondition_vertex(const Vecs& a, const MinresState& s, int v) {
+  const Vec3 r2 = load3(a.r2, v);
+  const Vec3 t = load3(a.t, v) - (s.alfa / s.beta) * r2;
+  const Vec3 y = a.Minv[v] * t;
+  store3(a.r1, v, r2);
+  store3(a.r2, v, t);
+  store3(a.y, v, y);
+  return dot(t, y);
+}
+
 template <class R>
 __global__ void k_lanczos(DevModel<R> m, Vecs a) {
   const MinresState s = *a.st;
   if (s.done) return;
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
-  double p[1] = {0};
-  if (v < a.n) {
-    if (s.pending) apply_update(a, s, v);
-    const double ib = 1.0 / s.beta;
-    const Vec3 vn = ib * load3(a.y, v);
-    Vec3 t = ib * stored_hess_vec(m, a, a.y, v);
-    if (s.oldb > 0) t -= (s.beta / s.oldb) * load3(a.r1, v);
-    store3(a.v, v, vn);
-    store3(a.t, v, t);
-    p[0] = dot(vn, t);
-  }
+  double p[1] = {v < a.n ? lanczos_vertex(m, a, s, v) : 0.0};
   block_sum<1>(p, a.part + blockIdx.x);
 }
 
@@ -198,21 +217,11 @@ __global__ void __launch_bounds__(kRedThreads) k_alfa(Vecs a, int nb) {
   }
 }
 
-// t -= (alfa/beta) r2; r1 = r2; r2 = t; y = M^-1 r2. Partial: r2.y.
 __global__ void k_precondition(Vecs a) {
   const MinresState s = *a.st;
   if (s.done) return;
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
-  double p[1] = {0};
-  if (v < a.n) {
-    const Vec3 r2 = load3(a.r2, v);
-    const Vec3 t = load3(a.t, v) - (s.alfa / s.beta) * r2;
-    const Vec3 y = a.Minv[v] * t;
-    store3(a.r1, v, r2);
-    store3(a.r2, v, t);
-    store3(a.y, v, y);
-    p[0] = dot(t, y);
-  }
+  double p[1] = {v < a.n ? precondition_vertex(a, s, v) : 0.0};
   block_sum<1>(p, a.part + blockIdx.x);
 }
 
@@ -226,6 +235,44 @@ __global__ void __launch_bounds__(kRedThreads) k_rotate(Vecs a, int nb) {
     sim::minres_rotate(st, s[0]);
     *a.st = st;
   }
+}
+
+// `iters` MINRES iterations in one cooperative launch: each block keeps the
+// scalar state in shared memory and walks its vertices grid-stride; a grid
+// barrier after each vector phase, after which every block reduces all the
+// blocks' partial sums itself (same order in every block, so all copies of the
+// state stay identical) instead of a one-block kernel doing it. Two barriers
+// per iteration instead of four launches. partA / partB: one slot per block
+// each, so a phase never overwrites sums another block may still be reading.
+template <class R>
+__global__ void __launch_bounds__(kPersistentThreads) k_minres_persistent(DevModel<R> m, Vecs a, double* partB, int iters) {
+  namespace cg = cooperative_groups;
+  cg::grid_group grid = cg::this_grid();
+  __shared__ MinresState s;
+  const int G = gridDim.x, stride = G * blockDim.x;
+  if (threadIdx.x == 0) s = *a.st;
+  __syncthreads();
+  for (int it = 0; it < iters && !s.done; ++it) {
+    double p[1] = {0};
+    for (int v = blockIdx.x * blockDim.x + threadIdx.x; v < a.n; v += stride) p[0] += lanczos_vertex(m, a, s, v);
+    block_sum<1>(p, a.part + blockIdx.x);
+    grid.sync();
+    double r[1];
+    reduce_fixed<1>(a.part, G, r);
+    if (threadIdx.x == 0) {
+      s.alfa = r[0];
+      s.pending = 0;
+    }
+    __syncthreads();
+    p[0] = 0;
+    for (int v = blockIdx.x * blockDim.x + threadIdx.x; v < a.n; v += stride) p[0] += precondition_vertex(a, s, v);
+    block_sum<1>(p, partB + blockIdx.x);
+    grid.sync();
+    reduce_fixed<1>(partB, G, r);
+    if (threadIdx.x == 0) sim::minres_rotate(s, r[0]);
+    __syncthreads();
+  }
+  if (blockIdx.x == 0 && threadIdx.x == 0) *a.st = s;
 }
 
 __global__ void k_finish(Vecs a) {
@@ -267,7 +314,8 @@ struct AdjointGpu::Impl {
   SimGpu* gpu = nullptr;
   cudaStream_t stream = nullptr;
   int n = 0, n_springs = 0, block = 128, nb = 0;
-  DevBuf x, g, lam, r1, r2, y, v, t, w, w2, Hs, Hown, Minv, part, st;
+  DevBuf x, g, lam, r1, r2, y, v, t, w, w2, Hs, Hown, Minv, part, partB, st;
+  int coop_blocks = 0;  // blocks of the persistent kernel (0: no cooperative launch here)
   MinresState* snap = nullptr;  // pinned
   bool have_state = false;
   // The graph of a batch and what it was captured with.
@@ -341,6 +389,20 @@ struct AdjointGpu::Impl {
     SF_CUDA(cudaGraphLaunch(graph, stream));
   }
 
+  // `iters` iterations in one cooperative launch of the persistent kernel.
+  void launch_persistent(int iters) {
+    Vecs a = vecs();
+    double* pb = partB.as<double>();
+    with_model([&](const auto& m) {
+      using M = std::decay_t<decltype(m)>;
+      using R = std::remove_const_t<std::remove_pointer_t<decltype(M::rest_L)>>;
+      M mm = m;
+      void* args[] = {&mm, &a, &pb, &iters};
+      SF_CUDA(cudaLaunchCooperativeKernel(reinterpret_cast<void*>(&k_minres_persistent<R>), dim3(coop_blocks),
+                                          dim3(kPersistentThreads), args, 0, stream));
+    });
+  }
+
   MinresState read_state() {
     SF_CUDA(cudaMemcpyAsync(snap, st.p, sizeof(MinresState), cudaMemcpyDeviceToHost, stream));
     SF_CUDA(cudaStreamSynchronize(stream));
@@ -362,7 +424,23 @@ AdjointGpu::AdjointGpu(SimGpu& gpu) : impl_(new Impl) {
   I.Hs.reserve(size_t(I.n_springs) * sizeof(Sym3));
   I.Hown.reserve(size_t(I.n) * sizeof(Sym3));
   I.Minv.reserve(size_t(I.n) * sizeof(Sym3));
-  I.part.reserve(size_t(std::max(I.nb, 1)) * 3 * sizeof(double));
+  // The persistent kernel needs all its blocks resident at once: as many as fit, at
+  // most one per 128 vertices.
+  int dev = 0, coop = 0, sms = 0, per_sm = 0;
+  SF_CUDA(cudaGetDevice(&dev));
+  SF_CUDA(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, dev));
+  SF_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
+  if (coop) {
+    if (gpu.options().float_rest)
+      SF_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_minres_persistent<float>, kPersistentThreads, 0));
+    else
+      SF_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_minres_persistent<double>, kPersistentThreads, 0));
+    const int want = (I.n + kPersistentThreads - 1) / kPersistentThreads;
+    I.coop_blocks = std::max(1, std::min(want, per_sm * sms));
+    if (per_sm == 0) I.coop_blocks = 0;
+  }
+  I.part.reserve(size_t(std::max({I.nb, I.coop_blocks, 1})) * 3 * sizeof(double));
+  I.partB.reserve(size_t(std::max(I.coop_blocks, 1)) * sizeof(double));
   I.st.reserve(sizeof(MinresState));
   SF_CUDA(cudaMallocHost(&I.snap, sizeof(MinresState)));
   *I.snap = MinresState();
@@ -409,8 +487,10 @@ AdjointReport AdjointGpu::solve(const double* g, double* lam, const AdjointSetti
   SF_CUDA(cudaGetLastError());
   MinresState st = I.read_state();
   const int batch = std::max(s.batch, 1);
+  const bool persistent = s.persistent && I.coop_blocks > 0;
   while (!st.done) {
-    I.launch_batch(batch);
+    if (persistent) I.launch_persistent(batch);
+    else I.launch_batch(batch);
     st = I.read_state();
   }
   k_finish<<<I.nb, I.block, 0, I.stream>>>(a);

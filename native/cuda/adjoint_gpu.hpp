@@ -5,7 +5,9 @@
 // once per state and stored, so each iteration is a stored-block product (a
 // gather, no atomics); the preconditioner is block Jacobi with the PSD
 // diagonal blocks. Vectors stay on the device; the host looks in once per
-// batch of iterations (a CUDA graph). Host-only interface: no CUDA types.
+// batch of iterations: one persistent cooperative kernel with two grid barriers
+// per iteration, or (where cooperative launch is not available, or asked for)
+// a CUDA graph of four kernels per iteration. Host-only interface: no CUDA types.
 #pragma once
 #include <memory>
 #include <string>
@@ -17,7 +19,8 @@ namespace seamfit::cuda {
 struct AdjointSettings {
   double tolerance = 1e-6;   // relative: |r|_{M^-1} <= tolerance * |g|_{M^-1}
   int max_iterations = 20000;
-  int batch = 32;            // MINRES iterations per graph launch between host looks
+  int batch = 32;            // MINRES iterations per launch between host looks
+  bool persistent = true;    // one cooperative kernel per batch (else a graph of four kernels per iteration)
 };
 
 struct AdjointReport {

@@ -23,15 +23,11 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "native" / "python"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+# The grading case of the device benchmark (it also puts native/python on the path).
+from bench_grade_device import B0, B1, PATTERN, ROOT  # noqa: E402
 from seamfit.fileio import atomic_write_text  # noqa: E402
-
-SAMPLES = ROOT / "sample_files"
-PATTERN = SAMPLES / "patterns" / "gc_pencil_skirt" / "size06" / "pattern.json"
-B0 = SAMPLES / "bodies" / "women_size06.obj"
-B1 = SAMPLES / "bodies" / "women_size10.obj"
 
 
 def one_size(edge_cm: float, args) -> dict:

@@ -74,8 +74,8 @@ def register(subparsers) -> None:
     p.add_argument("--truth", metavar="PATTERN", type=Path, default=None,
                    help="a pattern drafted for the target body: report landmark errors against it")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto",
-                   help="where the simulations run (default auto: the GPU when one is present and the "
-                        "garment is large enough to pay; the gradient runs on the CPU in this version); "
+                   help="where the simulations and the adjoint solve run (default auto: the GPU when one is "
+                        "present and the garment is large enough to pay; the costs and df/dp run on the CPU); "
                         "cuda fails at once with the reason when no GPU or CUDA build is present")
     p.add_argument("--no-picture", action="store_true", help="do not write drape.png and pattern.png")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")

@@ -10,7 +10,9 @@ collecting it, since its own Python has no bpy). To run it by hand:
 """
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -25,6 +27,8 @@ if os.environ.get("SEAMFIT_BPY_SUITE") != "1":
 else:
     # Before bpy is imported: keep Blender's user folders (preferences, extensions) out of ~.
     USER_RESOURCES = Path(tempfile.mkdtemp(prefix="seamfit-blender-user-"))
+    # The installed extension and its caches take about 350 MB: removed when the run ends.
+    atexit.register(shutil.rmtree, USER_RESOURCES, ignore_errors=True)
     os.environ["BLENDER_USER_RESOURCES"] = str(USER_RESOURCES)
     # seamfit's own disk caches (distance fields, base drapes) start empty for every run.
     os.environ["SEAMFIT_CACHE_DIR"] = str(USER_RESOURCES / "seamfit-cache")

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "bindings.hpp"
+#include "sim/minres_cpu.hpp"
 #include "sim/simulator.hpp"
 #include "sim/tangent_solver.hpp"
 #include "sim_report.hpp"
@@ -339,6 +340,45 @@ void bind_sim(py::module_& m) {
            },
            py::arg("g"))
       .def_property_readonly("factorizations", &TangentSolver::factorizations);
+
+  m.def(
+      "minres_solve",
+      [](IArr indptr, IArr indices, DArr data, DArr minv, DArr g, DArr lam0, double tolerance, int max_iterations) {
+        const py::ssize_t n3 = g.size(), n = n3 / 3;
+        require_shape(indptr, n3 + 1, 0, "indptr");
+        require_shape(minv, n, 6, "minv");
+        require_shape(lam0, n3, 0, "lam0");
+        const int nnz = indptr.data()[n3];
+        if (indices.size() != nnz || data.size() != nnz) throw SimError("indices and data must hold indptr[-1] entries");
+        for (int k = 0; k < nnz; ++k)
+          if (indices.data()[k] < 0 || indices.data()[k] >= n3) throw SimError("a column index is out of range");
+        const Eigen::Map<const Eigen::SparseMatrix<double, Eigen::RowMajor>> A(
+            n3, n3, nnz, indptr.data(), indices.data(), data.data());
+        const Eigen::SparseMatrix<double, Eigen::RowMajor> Ac = A;
+        std::vector<seamfit::sim::Sym3> blocks(n);
+        const double* mp = minv.data();
+        for (py::ssize_t i = 0; i < n; ++i)
+          blocks[i] = {mp[6 * i], mp[6 * i + 1], mp[6 * i + 2], mp[6 * i + 3], mp[6 * i + 4], mp[6 * i + 5]};
+        py::array_t<double> lam(n3);
+        std::copy(lam0.data(), lam0.data() + n3, lam.mutable_data());
+        seamfit::sim::MinresState st;
+        {
+          py::gil_scoped_release nogil;
+          st = seamfit::sim::minres_solve(Ac, blocks, g.data(), lam.mutable_data(), tolerance, max_iterations);
+        }
+        py::dict d;
+        d["iterations"] = st.it;
+        d["status"] = st.status == seamfit::sim::kMinresConverged ? "converged"
+                      : st.status == seamfit::sim::kMinresBudget  ? "budget"
+                                                                   : "breakdown";
+        d["estimate"] = st.bnorm > 0 ? st.phibar / st.bnorm : 0.0;
+        d["residual"] = st.gnorm2 > 0 ? std::sqrt(st.rnorm2 / st.gnorm2) : std::sqrt(st.rnorm2);
+        return py::make_tuple(lam, d);
+      },
+      py::arg("indptr"), py::arg("indices"), py::arg("data"), py::arg("minv"), py::arg("g"), py::arg("lam0"),
+      py::arg("tolerance") = 1e-8, py::arg("max_iterations") = 10000,
+      "Preconditioned MINRES on the CPU with the GPU adjoint's recurrence: A (CSR, 3n x 3n) lam = g from "
+      "lam0, with inverse preconditioner blocks minv (n, 6: xx yy zz xy xz yz). Returns (lam, report).");
 }
 
 }  // namespace seamfit::bindings

@@ -61,6 +61,19 @@ def test_device_cuda_grades_or_fails_clearly(tmp_path, capsys, graded):
     assert not (tmp_path / "x").exists()
 
 
+def test_the_summary_says_where_the_time_went(graded, capsys):
+    """Without -q the grade command ends with the device and the loop's time split; on the
+    GPU with the adjoint's MINRES iterations per solve and its budget stops."""
+    from seamfit.commands.grade import _print_time_split
+    for device, (_, rep) in graded.items():
+        _print_time_split(rep)
+        line = capsys.readouterr().err
+        assert line.startswith(f"device {device}: simulation ") and "adjoint " in line
+        assert ("MINRES" in line) == (device == "cuda")
+    _print_time_split({"device": "cpu"})  # the baselines' reports have no split: nothing
+    assert capsys.readouterr().err == ""
+
+
 def _grade_api(device, precond_refresh=1, iterations=256):
     """The CLI's grading case through the API, run long (256 accepted outer iterations):
     after 32 the search is far from converged and its path is what differs."""

@@ -153,12 +153,28 @@ def run(args) -> int:
         print(f"{r['method']}: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} "
               f"({100 * r['objective_reduction']:.1f} % lower) in {r['outer_iterations']} iterations, "
               f"{r['seconds_total']:.1f} s; max pattern change {r['max_displacement_mm']:.1f} mm", file=sys.stderr)
+        _print_time_split(r)
         if "accuracy" in r:
             print(f"landmark error vs truth: max {r['accuracy']['graded']['max_cm']:.2f} cm "
                   f"(unchanged base: {r['accuracy']['base_unchanged']['max_cm']:.2f} cm)", file=sys.stderr)
         pics = "" if args.no_picture else ", pattern.png, drape.png"
         print(f"wrote {out}/pattern.json, pattern.svg, garment.obj, report.json{pics}", file=sys.stderr)
     return 0 if report["converged"] else 1
+
+
+def _print_time_split(r: dict) -> None:
+    """Where the outer loop's time went, on which device (Algorithm 1's report only)."""
+    sp = r.get("seconds_loop_split")
+    if not sp:
+        return
+    adj = r.get("adjoint") or {}
+    extra = ""
+    if adj.get("device") == "cuda" and adj.get("solves"):
+        extra = f", MINRES {adj['minres_iterations'] / adj['solves']:.0f} iterations per solve"
+        if adj.get("truncated") or adj.get("gpu_fallbacks"):
+            extra += f": {adj.get('truncated', 0)} kept at the budget, {adj.get('gpu_fallbacks', 0)} redone on the CPU"
+    print(f"device {r['device']}: simulation {sp['simulation']:.1f} s, gradient {sp['gradient']:.1f} s "
+          f"(adjoint {sp.get('factorizations', 0.0) + sp.get('adjoint_solves', 0.0):.1f} s{extra})", file=sys.stderr)
 
 
 def _with_uv(mesh, uv_cm):

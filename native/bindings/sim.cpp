@@ -368,9 +368,7 @@ void bind_sim(py::module_& m) {
         }
         py::dict d;
         d["iterations"] = st.it;
-        d["status"] = st.status == seamfit::sim::kMinresConverged ? "converged"
-                      : st.status == seamfit::sim::kMinresBudget  ? "budget"
-                                                                   : "breakdown";
+        d["status"] = seamfit::sim::minres_status_name(st.status);
         d["estimate"] = st.bnorm > 0 ? st.phibar / st.bnorm : 0.0;
         d["residual"] = st.gnorm2 > 0 ? std::sqrt(st.rnorm2 / st.gnorm2) : std::sqrt(st.rnorm2);
         return py::make_tuple(lam, d);

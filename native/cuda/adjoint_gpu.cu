@@ -510,7 +510,7 @@ AdjointReport AdjointGpu::solve(const double* g, double* lam, const AdjointSetti
   r.estimate = fin.bnorm > 0 ? fin.phibar / fin.bnorm : 0.0;
   r.residual = fin.gnorm2 > 0 ? std::sqrt(fin.rnorm2 / fin.gnorm2) : std::sqrt(fin.rnorm2);
   r.converged = fin.status == sim::kMinresConverged;
-  r.status = fin.status == sim::kMinresConverged ? "converged" : fin.status == sim::kMinresBudget ? "budget" : "breakdown";
+  r.status = sim::minres_status_name(fin.status);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::string its = std::to_string(fin.it);
   if (fin.status == sim::kMinresConverged)

@@ -23,6 +23,11 @@ namespace seamfit::sim {
 
 enum MinresStatus { kMinresRunning = 0, kMinresConverged = 1, kMinresBudget = 2, kMinresBreakdown = 3 };
 
+// The name reports use for a final status.
+inline const char* minres_status_name(int status) {
+  return status == kMinresConverged ? "converged" : status == kMinresBudget ? "budget" : "breakdown";
+}
+
 struct MinresState {
   // Settings.
   double tol = 1e-6;      // stop at phibar <= tol * bnorm

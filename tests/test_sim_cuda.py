@@ -354,5 +354,5 @@ def test_device_settings_are_validated():
     mesh, _ = tube_sim(sticking=False)
     with pytest.raises(SolveError, match="unknown device"):
         Simulator(mesh, None, settings=SimSettings(device="tpu"))
-    with pytest.raises(SolveError, match="newton"):
-        Simulator(mesh, None, settings=SimSettings(device="cuda", method="newton"))
+    with pytest.raises(SolveError, match="unknown solver method"):
+        Simulator(mesh, None, settings=SimSettings(device="cuda", method="gauss-seidel"))

@@ -13,6 +13,7 @@
 
 #include "sim/simulator.hpp"
 #include "adjoint_gpu.hpp"
+#include "newton_gpu.hpp"
 #include "sim_gpu.hpp"
 #include "sim_report.hpp"
 #endif
@@ -138,42 +139,31 @@ void bind_cuda_sim(py::module_& m) {
              py::array_t<double> x({py::ssize_t(n), py::ssize_t(3)});
              std::copy(x0.data(), x0.data() + 3 * size_t(n), x.mutable_data());
              double* xp = x.mutable_data();
-             seamfit::sim::ProgressFn fn;
-             std::atomic<bool> cancel{false};
-             bool py_error = false;
-             py::object err_type, err_value, err_tb;
-             if (!progress.is_none()) {
-               // Called with the GIL released, between batches; a raising
-               // callback cancels the solve and re-raises afterwards.
-               fn = [&](int it, double res) -> bool {
-                 py::gil_scoped_acquire gil;
-                 try {
-                   py::object r = progress(it, res);
-                   return r.is_none() || r.cast<bool>();
-                 } catch (py::error_already_set& e) {
-                   py_error = true;
-                   e.restore();
-                   PyObject *t, *v, *tb;
-                   PyErr_Fetch(&t, &v, &tb);
-                   err_type = py::reinterpret_steal<py::object>(t);
-                   err_value = py::reinterpret_steal<py::object>(v);
-                   err_tb = py::reinterpret_steal<py::object>(tb);
-                   return false;
-                 }
-               };
-             }
-             SolveReport rep;
-             {
-               py::gil_scoped_release nogil;
-               rep = g.solve(xp, st, fn, &cancel);
-             }
-             if (py_error) {
-               PyErr_Restore(err_type.release().ptr(), err_value.release().ptr(), err_tb.release().ptr());
-               throw py::error_already_set();
-             }
+             const SolveReport rep = with_progress(progress, [&](const seamfit::sim::ProgressFn& fn,
+                                                                 const std::atomic<bool>* cancel) {
+               return g.solve(xp, st, fn, cancel);
+             });
              return py::make_tuple(x, report_dict(rep, g));
            },
            py::arg("x"), py::arg("settings"), py::arg("progress") = py::none())
+      .def("newton",
+           [](SimGpu& g, Simulator& sim, seamfit::cuda::AdjointGpu& lin, DArr x0, const SolveSettings& st,
+              py::object progress, int max_linear_iterations) {
+             require_x(g, x0);
+             const int n = g.simulator().n_vertices();
+             py::array_t<double> x({py::ssize_t(n), py::ssize_t(3)});
+             std::copy(x0.data(), x0.data() + 3 * size_t(n), x.mutable_data());
+             double* xp = x.mutable_data();
+             const SolveReport rep = with_progress(progress, [&](const seamfit::sim::ProgressFn& fn,
+                                                                 const std::atomic<bool>* cancel) {
+               return seamfit::cuda::newton_on_gpu(sim, g, lin, xp, st, fn, cancel, max_linear_iterations);
+             });
+             return py::make_tuple(x, report_dict(rep, g));
+           },
+           py::arg("simulator"), py::arg("adjoint"), py::arg("x"), py::arg("settings"),
+           py::arg("progress") = py::none(), py::arg("max_linear_iterations") = 5000,
+           "Newton from x with each step solved by MINRES on the GPU (`adjoint`, a CudaAdjoint of this "
+           "GPU simulator); line search and the rest on the CPU `simulator` this mirrors. Returns (x, report).")
       .def("time_kernels",
            [](SimGpu& g, DArr x, int reps) {
              require_x(g, x);

@@ -5,6 +5,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <atomic>
 #include <string>
 
@@ -274,47 +275,45 @@ void bind_sim(py::module_& m) {
            },
            py::arg("x"), py::arg("floor"), py::arg("target"))
       .def("solve",
-           [](Simulator& s, DArr x0, const SolveSettings& st, py::object progress) {
+           [](Simulator& s, DArr x0, const SolveSettings& st, py::object progress, py::object step) {
              require_shape(x0, s.n_vertices(), 3, "x");
-             py::array_t<double> x({py::ssize_t(s.n_vertices()), py::ssize_t(3)});
-             std::copy(x0.data(), x0.data() + 3 * s.n_vertices(), x.mutable_data());
+             const int n = s.n_vertices();
+             py::array_t<double> x({py::ssize_t(n), py::ssize_t(3)});
+             std::copy(x0.data(), x0.data() + 3 * n, x.mutable_data());
              double* xp = x.mutable_data();
-             seamfit::sim::ProgressFn fn;
-             std::atomic<bool> cancel{false};
-             bool py_error = false;
-             py::object err_type, err_value, err_tb;
-             if (!progress.is_none()) {
-               // Called with the GIL released: take it for the Python call; a
-               // raising callback cancels the solve and re-raises afterwards.
-               fn = [&](int it, double res) -> bool {
+             seamfit::sim::NewtonStepFn step_fn;
+             if (!step.is_none()) {
+               // step(x, psd, shift, f, forcing) -> (dx, iterations), or None when it
+               // failed; called with the GIL retaken. A raising step fails the
+               // solve (its message names the failure), it does not escape it.
+               step_fn = [&, n](const double* xs, bool psd, double shift, const double* f, double forcing,
+                                double* dx) -> int {
                  py::gil_scoped_acquire gil;
                  try {
-                   py::object r = progress(it, res);
-                   return r.is_none() || r.cast<bool>();
-                 } catch (py::error_already_set& e) {
-                   py_error = true;
-                   e.restore();
-                   PyObject *t, *v, *tb;
-                   PyErr_Fetch(&t, &v, &tb);
-                   err_type = py::reinterpret_steal<py::object>(t);
-                   err_value = py::reinterpret_steal<py::object>(v);
-                   err_tb = py::reinterpret_steal<py::object>(tb);
-                   return false;
+                   py::array_t<double> xa({py::ssize_t(n), py::ssize_t(3)}), fa({py::ssize_t(n), py::ssize_t(3)});
+                   std::copy(xs, xs + 3 * n, xa.mutable_data());
+                   std::copy(f, f + 3 * n, fa.mutable_data());
+                   py::object r = step(xa, psd, shift, fa, forcing);
+                   if (r.is_none()) return -1;
+                   auto t = r.cast<py::tuple>();
+                   DArr d = t[0].cast<DArr>();
+                   if (d.size() != 3 * py::ssize_t(n)) return -1;
+                   std::copy(d.data(), d.data() + 3 * n, dx);
+                   return std::max(0, t[1].cast<int>());
+                 } catch (py::error_already_set&) {
+                   return -1;
                  }
                };
              }
-             SolveReport rep;
-             {
-               py::gil_scoped_release nogil;
-               rep = s.solve(xp, st, fn, &cancel);
-             }
-             if (py_error) {
-               PyErr_Restore(err_type.release().ptr(), err_value.release().ptr(), err_tb.release().ptr());
-               throw py::error_already_set();
-             }
+             const SolveReport rep = with_progress(progress, [&](const seamfit::sim::ProgressFn& fn,
+                                                                 const std::atomic<bool>* cancel) {
+               return s.solve(xp, st, fn, cancel, step_fn);
+             });
              return py::make_tuple(x, report_dict(rep));
            },
-           py::arg("x"), py::arg("settings"), py::arg("progress") = py::none());
+           py::arg("x"), py::arg("settings"), py::arg("progress") = py::none(), py::arg("step") = py::none(),
+           "Solve from x; returns (x, report). step (Newton only): an outside solver of each Newton "
+           "system, step(x, psd, shift, f, forcing) -> (dx, iterations) or None, in place of the sparse LDL^T.");
 
   py::class_<TangentSolver>(m, "TangentSolver",
                             "Sparse LDL^T solves with a simulator's tangent stiffness (the adjoint's H).")

@@ -4,6 +4,9 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
+#include <utility>
+
 #include "sim/simulator.hpp"
 
 namespace seamfit::bindings {
@@ -33,11 +36,52 @@ inline pybind11::dict report_dict(const sim::SolveReport& r) {
   d["momentum_restarts"] = r.momentum_restarts;
   d["final_rho"] = r.final_rho;
   d["final_alpha"] = r.final_alpha;
+  d["linear_iterations"] = r.linear_iterations;
   d["message"] = r.message;
   d["history_iteration"] = r.hist_iter;
   d["history_seconds"] = r.hist_seconds;
   d["history_residual"] = r.hist_residual;
   return d;
+}
+
+// Runs solve(fn, cancel) with the GIL released, fn relaying progress(it, res)
+// to Python (None: no callback). The callback runs with the GIL retaken; one
+// that raises cancels the solve, and its exception is re-raised afterwards.
+template <class Solve>
+auto with_progress(const pybind11::object& progress, Solve&& solve) {
+  namespace py = pybind11;
+  sim::ProgressFn fn;
+  std::atomic<bool> cancel{false};
+  bool py_error = false;
+  py::object err_type, err_value, err_tb;
+  if (!progress.is_none()) {
+    fn = [&](int it, double res) -> bool {
+      py::gil_scoped_acquire gil;
+      try {
+        py::object r = progress(it, res);
+        return r.is_none() || r.cast<bool>();
+      } catch (py::error_already_set& e) {
+        py_error = true;
+        e.restore();
+        PyObject *t, *v, *tb;
+        PyErr_Fetch(&t, &v, &tb);
+        err_type = py::reinterpret_steal<py::object>(t);
+        err_value = py::reinterpret_steal<py::object>(v);
+        err_tb = py::reinterpret_steal<py::object>(tb);
+        return false;
+      }
+    };
+  }
+  decltype(solve(fn, &cancel)) out;
+  {
+    py::gil_scoped_release nogil;
+    out = solve(fn, &cancel);
+  }
+  if (py_error) {
+    PyErr_Restore(err_type.release().ptr(), err_value.release().ptr(), err_tb.release().ptr());
+    throw py::error_already_set();
+  }
+  return out;
 }
 
 }  // namespace seamfit::bindings

@@ -713,10 +713,10 @@ int Simulator::project_outside(double* x, double floor, double target) const {
 }
 
 SolveReport Simulator::solve(double* x, const SolveSettings& s, const ProgressFn& progress,
-                             const std::atomic<bool>* cancel) {
+                             const std::atomic<bool>* cancel, const NewtonStepFn& step) {
   for (int i = 0; i < 3 * n_; ++i)
     if (!std::isfinite(x[i])) throw SimError("simulator: start position of vertex " + std::to_string(i / 3) + " is not finite");
-  if (s.method == 1) return solve_newton(x, s, progress, cancel);
+  if (s.method == 1) return solve_newton(x, s, progress, cancel, step);
   return solve_chebyshev(x, s, progress, cancel);
 }
 

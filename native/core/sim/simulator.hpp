@@ -93,12 +93,21 @@ struct SolveReport {
   long rejected_steps = 0;   // vertex steps dropped by the barrier-safe step
   long momentum_restarts = 0;  // gradient restarts of the Chebyshev sequence
   double final_rho = 0, final_alpha = 0;
+  long linear_iterations = 0;  // Newton with an outside step solver: its iterations, all steps
   std::string message;
   std::vector<double> hist_iter, hist_seconds, hist_residual;
 };
 
 // Progress callback: (iteration, residual) -> keep going?
 using ProgressFn = std::function<bool(int, double)>;
+
+// An outside solver of the Newton system, in place of the sparse LDL^T (the
+// GPU's MINRES, seamfit::cuda::newton_on_gpu): fills dx (3n) with an
+// approximate solution of (H(x) + shift_rel * mean|diag H|) dx = f, H exact or
+// PSD-projected (psd), to a relative residual of `forcing`. Returns the
+// iterations it took, or -1 when it failed.
+using NewtonStepFn = std::function<int(const double* x, bool psd, double shift_rel, const double* f, double forcing,
+                                       double* dx)>;
 
 // Read-only view of the assembled topology, rest state and body of a
 // Simulator, for backends that mirror it elsewhere (the CUDA backend copies
@@ -186,8 +195,10 @@ class Simulator {
   // meshes, where fork/join costs more than the work; all threads otherwise).
   void set_threads(int threads);
   int threads() const { return threads_; }
+  // `step`, for the Newton method only: solves its linear systems (default:
+  // sparse LDL^T on this CPU).
   SolveReport solve(double* x, const SolveSettings& s, const ProgressFn& progress,
-                    const std::atomic<bool>* cancel = nullptr);
+                    const std::atomic<bool>* cancel = nullptr, const NewtonStepFn& step = {});
 
  private:
   void build_topology(int n_tris, const int32_t* tris, int n_sew, const int32_t* sew);
@@ -204,7 +215,7 @@ class Simulator {
   SolveReport solve_chebyshev(double* x, const SolveSettings& s, const ProgressFn& progress,
                               const std::atomic<bool>* cancel);
   SolveReport solve_newton(double* x, const SolveSettings& s, const ProgressFn& progress,
-                           const std::atomic<bool>* cancel);
+                           const std::atomic<bool>* cancel, const NewtonStepFn& step);
   // Plain block-Jacobi descent sweeps (barrier-safe, energy never rises);
   // returns the energy at the result.
   double jacobi_sweeps(double* x, int sweeps, double alpha);

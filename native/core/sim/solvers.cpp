@@ -15,6 +15,8 @@
 // Newton: the PSD-projected Hessian factorized by sparse LDL^T (AMD ordering,
 // pattern analysed once), a Levenberg shift when the factorization is not
 // positive definite, a step bounded by the barrier, and Armijo backtracking.
+// With an outside step solver (the GPU's MINRES) the same loop is an inexact
+// Newton method: PSD Hessian, Eisenstat-Walker forcing terms.
 #include <omp.h>
 
 #include <Eigen/SparseCholesky>
@@ -35,6 +37,13 @@ using Clock = std::chrono::steady_clock;
 
 // kProjectFloor, kFreeStep, kLipschitz and the safe step come from
 // sim/jacobi_step.hpp, shared with the GPU.
+
+// Inexact Newton (an outside step solver): the loosest forcing term, the least
+// relative shift (the PSD Hessian is singular along free modes), and how often
+// a step whose line search fails is solved again.
+constexpr double kForcingMax = 0.1;
+constexpr double kStepShift = 1e-8;
+constexpr int kStepRetries = 3;
 
 inline double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
@@ -288,7 +297,7 @@ double Simulator::jacobi_sweeps(double* x, int sweeps, double alpha) {
 }
 
 SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const ProgressFn& progress,
-                                    const std::atomic<bool>* cancel) {
+                                    const std::atomic<bool>* cancel, const NewtonStepFn& step) {
   const auto t0 = Clock::now();
   SolveReport rep;
   const int n3 = 3 * n_;
@@ -310,6 +319,11 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
   // it started with. The state of least residual is kept and handed back.
   Eigen::VectorXd x_best = X;
   double res_best = std::numeric_limits<double>::infinity();
+  // Outside step solver (inexact Newton): the forcing term, the residual
+  // before the last step, and the retries of the current step.
+  double forcing = kForcingMax, res_prev = -1;
+  int retries = 0;
+  bool step_exact = false;
   int it = 0;
   for (;; ++it) {
     const double res = residual(f.data());
@@ -318,7 +332,7 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
       res_best = res;
       x_best = X;
     }
-    if (st.history_every > 0) {
+    if (st.history_every > 0 && retries == 0) {
       rep.hist_iter.push_back(it);
       rep.hist_seconds.push_back(seconds_since(t0));
       rep.hist_residual.push_back(res);
@@ -344,54 +358,75 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
       rep.message = "cancelled at Newton iteration " + std::to_string(it) + " (relative residual " + fmt(res) + ")";
       break;
     }
-    // Exact Hessian when it is positive definite (quadratic convergence near a
-    // strict minimum); otherwise the PSD-projected one with a Levenberg shift.
-    // A failed attempt costs a whole factorization, so after a failure the
-    // exact Hessian is tried again only every few iterations or close to
-    // convergence.
-    bool ok = false;
-    const bool try_exact = st.newton_exact_first &&
-                           (exact_ok || it - last_exact_try >= 8 || res < 20 * st.tolerance);
-    if (try_exact) {
-      last_exact_try = it;
-      hessian(x, false);
-      if (!analysed) {
-        ldlt.analyzePattern(H_);
-        analysed = true;
+    if (step) {
+      // Eisenstat-Walker forcing (choice 2), capped at kForcingMax, never
+      // tighter than reaching the tolerance needs, 100x tighter per retry.
+      if (res_prev > 0 && retries == 0) {
+        double eta = 0.9 * (res / res_prev) * (res / res_prev);
+        if (0.9 * forcing * forcing > 0.1) eta = std::max(eta, 0.9 * forcing * forcing);
+        forcing = std::min(eta, kForcingMax);
       }
-      ldlt.factorize(H_);
-      ok = ldlt.info() == Eigen::Success && (ldlt.vectorD().array() > 0).all();
-      exact_ok = ok;
-    }
-    if (!ok) {
-      hessian(x, true);
-      double mean_diag = 0;
-      for (int c = 0; c < n3; ++c) mean_diag += H_.coeff(c, c);
-      mean_diag = std::max(mean_diag / n3, 1e-300);
-      if (!analysed) {
-        ldlt.analyzePattern(H_);
-        analysed = true;
+      const double eta = std::max(forcing, 0.5 * st.tolerance / res) * std::pow(0.01, retries);
+      // As with the factorization: the exact Hessian while its steps are
+      // accepted, the PSD one after a failure (tried again every few iterations).
+      step_exact = st.newton_exact_first && retries == 0 && (exact_ok || it - last_exact_try >= 8);
+      if (step_exact) last_exact_try = it;
+      const int k = step(x, !step_exact, std::max(shift, kStepShift), f.data(), eta, dx.data());
+      if (k < 0) {
+        rep.message = "not converged: the linear solve of the Newton step failed (relative residual " + fmt(res) + ")";
+        break;
       }
-      Eigen::SparseMatrix<double> Hs;
-      for (int tries = 0; tries < 12; ++tries) {
-        const double delta = shift * mean_diag;
-        if (delta > 0) {
-          Hs = H_;
-          for (int c = 0; c < n3; ++c) Hs.coeffRef(c, c) += delta;
-          ldlt.factorize(Hs);
-        } else {
-          ldlt.factorize(H_);
+      rep.linear_iterations += k;
+    } else {
+      // Exact Hessian when it is positive definite (quadratic convergence near a
+      // strict minimum); otherwise the PSD-projected one with a Levenberg shift.
+      // A failed attempt costs a whole factorization, so after a failure the
+      // exact Hessian is tried again only every few iterations or close to
+      // convergence.
+      bool ok = false;
+      const bool try_exact = st.newton_exact_first &&
+                             (exact_ok || it - last_exact_try >= 8 || res < 20 * st.tolerance);
+      if (try_exact) {
+        last_exact_try = it;
+        hessian(x, false);
+        if (!analysed) {
+          ldlt.analyzePattern(H_);
+          analysed = true;
         }
+        ldlt.factorize(H_);
         ok = ldlt.info() == Eigen::Success && (ldlt.vectorD().array() > 0).all();
-        if (ok) break;
-        shift = shift > 0 ? 10 * shift : 1e-10;
+        exact_ok = ok;
       }
+      if (!ok) {
+        hessian(x, true);
+        double mean_diag = 0;
+        for (int c = 0; c < n3; ++c) mean_diag += H_.coeff(c, c);
+        mean_diag = std::max(mean_diag / n3, 1e-300);
+        if (!analysed) {
+          ldlt.analyzePattern(H_);
+          analysed = true;
+        }
+        Eigen::SparseMatrix<double> Hs;
+        for (int tries = 0; tries < 12; ++tries) {
+          const double delta = shift * mean_diag;
+          if (delta > 0) {
+            Hs = H_;
+            for (int c = 0; c < n3; ++c) Hs.coeffRef(c, c) += delta;
+            ldlt.factorize(Hs);
+          } else {
+            ldlt.factorize(H_);
+          }
+          ok = ldlt.info() == Eigen::Success && (ldlt.vectorD().array() > 0).all();
+          if (ok) break;
+          shift = shift > 0 ? 10 * shift : 1e-10;
+        }
+      }
+      if (!ok) {
+        rep.message = "not converged: the stiffness matrix could not be factorized (relative residual " + fmt(res) + ")";
+        break;
+      }
+      dx = ldlt.solve(f);
     }
-    if (!ok) {
-      rep.message = "not converged: the stiffness matrix could not be factorized (relative residual " + fmt(res) + ")";
-      break;
-    }
-    dx = ldlt.solve(f);
     if (!dx.allFinite()) {
       rep.message = "not converged: the Newton step is not finite (relative residual " + fmt(res) + ")";
       break;
@@ -428,7 +463,10 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
     double t = 1.0;
     bool accepted = false;
     EnergyTerms et_t;
-    for (int ls = 0; ls < 60; ++ls) {
+    // An inexact step that does not descend is solved again (below) rather
+    // than searched down to a step that rounding lets pass.
+    const int searches = step && !(f.dot(dx) > 0) ? 0 : 60;
+    for (int ls = 0; ls < searches; ++ls) {
       trial(t);
       const double gain = f.dot(xt - X);  // first-order energy decrease of the actual move
       const double Et = energy(xt.data(), &et_t);
@@ -438,10 +476,21 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
       }
       t *= 0.5;
     }
+    if (step) exact_ok = accepted || !step_exact;
+    if (!accepted && step && retries < kStepRetries) {
+      // An inexact step need not be a descent direction: solve it again,
+      // tighter and more shifted (towards the preconditioned force).
+      ++retries;
+      shift = shift > 0 ? 10 * shift : 1e-6;
+      --it;
+      continue;
+    }
     if (!accepted) {
       rep.message = "not converged: line search failed at relative residual " + fmt(res);
       break;
     }
+    retries = 0;
+    res_prev = res;
     const double tmax = 1.0;
     X = xt;
     E = force(x, f.data(), &et);

@@ -120,11 +120,8 @@ def run(args) -> int:
     say(f"body SDF: {'x'.join(str(d) for d in sdf.values.shape[::-1])} nodes at {sdf.spacing * 1000:g} mm")
     fabric = Fabric(stretch_stiffness=args.stretch_stiffness, sewing_stiffness=args.sewing_stiffness,
                     bending_stiffness=args.bending_stiffness, density=args.density)
-    # Newton runs on the CPU: auto means the CPU for it.
-    device = "cpu" if args.method == "newton" and args.device == "auto" else \
-        resolve_device(args.device, problem_size=int(mesh.n_vertices))
-    if device == "cuda" and args.method == "newton":
-        raise SeamfitError("--method newton runs on the CPU only; use --device cpu or --method chebyshev")
+    # On the GPU, Newton's steps are solved by MINRES there (docs/gpu.md).
+    device = resolve_device(args.device, problem_size=int(mesh.n_vertices))
     settings = SimSettings(method=args.method, tolerance=args.tolerance, mu=args.mu,
                            max_seconds=args.max_seconds, polish=not args.no_polish, device=device)
     if args.max_iterations is not None:

@@ -27,14 +27,16 @@ from .transfer import transfer_garment
 ProgressFn = Callable[[dict], Optional[bool]]
 
 
-def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, *, progress=None):
-    """x-bar, the base garment on the base body, cached on disk by content."""
+def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, *, progress=None,
+               refresh: bool = False):
+    """x-bar, the base garment on the base body, cached on disk by content
+    (refresh: drape afresh and overwrite the cached one)."""
     from ..sim.multilevel import drape_coarse_to_fine
     # The device is not an input of the physics: a drape made on the GPU serves the CPU too.
     physics = {k: v for k, v in asdict(settings).items() if k != "device"}
     key = content_key("base-drape-2", mesh.cache_key(), body.vertices, body.faces, float(sdf.spacing),
                       asdict(fabric), physics)
-    hit = load_arrays("drape", key)
+    hit = None if refresh else load_arrays("drape", key)
     if hit is not None and hit["x"].shape == mesh.x0.shape:
         return hit["x"], {"cached": True, "key": key, **{k: float(hit[k]) for k in ("residual", "seconds")}}
     sim = Simulator(mesh, sdf, fabric, settings)
@@ -46,9 +48,11 @@ def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, 
         raise SolveError(f"the base garment did not settle on the base body: {res.message} "
                          f"(residual {res.residual:.3g}); raise max_iterations or check the placement")
     save_arrays("drape", key, {"x": res.x, "residual": np.float64(res.residual), "seconds": np.float64(res.seconds)})
+    stages = [{k: st.get(k) for k in ("stage", "iterations", "seconds", "residual", "converged", "linear_iterations",
+                                      "device", "message")} for st in res.stages]
     return res.x, {"cached": False, "key": key, "residual": res.residual, "seconds": res.seconds,
                    "iterations": res.iterations, "max_sewing_gap_mm": res.max_sewing_gap_mm,
-                   "min_phi_mm": res.min_phi_mm}
+                   "min_phi_mm": res.min_phi_mm, "stages": stages}
 
 
 @dataclass

@@ -58,6 +58,7 @@ class CudaSimulator:
         self._core_sim = simulator.core if hasattr(simulator, "core") else simulator
         self._gpu = core().CudaSimulator(self._core_sim, device=device, block=block, lanes=lanes, batch=batch,
                                          use_graph=use_graph, float_rest=float_rest, fuse_control=fuse_control)
+        self._adjoint = None  # CudaAdjoint for Newton's steps, made on first use
 
     @property
     def device_name(self) -> str:
@@ -90,11 +91,12 @@ class CudaSimulator:
     def residual(self, x) -> float:
         return float(np.linalg.norm(self.force(x)) / self._core_sim.weight_norm)
 
-    def _settings(self, tolerance, max_iterations):
+    def _settings(self, tolerance, max_iterations, method="chebyshev"):
         sim = self.simulator
         if hasattr(sim, "_settings"):
-            return sim._settings(tolerance, max_iterations, "chebyshev")
+            return sim._settings(tolerance, max_iterations, method)
         st = core().SolveSettings()
+        st.method = 1 if method == "newton" else 0
         if tolerance is not None:
             st.tolerance = float(tolerance)
         if max_iterations is not None:
@@ -116,6 +118,21 @@ class CudaSimulator:
         if sync:
             self._gpu.sync()
         return self._gpu.solve(np.asarray(x0, dtype=np.float64).reshape(-1, 3), st, progress)
+
+    def newton(self, x0, *, settings=None, progress: Optional[Callable[[int, float], bool]] = None,
+               max_linear_iterations: int = 5000, sync: bool = True) -> tuple[np.ndarray, dict]:
+        """Newton from x0 (N, 3) with each step's linear system solved on the GPU
+        by preconditioned MINRES (inexact Newton); the line search runs on the
+        CPU. Returns (x, report) with the CPU Newton's keys, 'linear_iterations'
+        (MINRES, all steps) and 'device'. max_linear_iterations: MINRES budget
+        of one step; a step stopped there is still used."""
+        st = settings if settings is not None else self._settings(None, None, "newton")
+        if sync:
+            self._gpu.sync()
+        if self._adjoint is None:
+            self._adjoint = core().CudaAdjoint(self._gpu)
+        return self._gpu.newton(self._core_sim, self._adjoint, np.asarray(x0, dtype=np.float64).reshape(-1, 3), st,
+                                progress, int(max_linear_iterations))
 
     def time_kernels(self, x, reps: int = 200) -> dict:
         """Device microseconds per kernel of an iteration at x, and the bytes each must move."""

@@ -83,7 +83,7 @@ class SimSettings:
     momentum_restart: int = 0          # Chebyshev: 0 energy checks only, 1 global, 2 per-vertex gradient restart
     precond_refresh: int = 4           # Chebyshev (CPU): refresh the springs' Jacobi blocks every N iterations
     far_bound: bool = True             # Chebyshev (CPU): bound, not sample, steps beyond the barrier's reach
-    device: str = "cpu"                # where solves run: "cpu" or "cuda" (Chebyshev only; docs/gpu.md)
+    device: str = "cpu"                # where solves run: "cpu" or "cuda" (docs/gpu.md)
     # Dressing stages (see Simulator.drape).
     sew_first: bool = True             # stage 1: close the seams with gravity off
     sew_stage_tolerance: float = 1e-2
@@ -110,8 +110,6 @@ class SimSettings:
             raise SolveError("max_iterations must be >= 0")
         if self.device not in ("cpu", "cuda"):
             raise SolveError(f"unknown device {self.device!r} (cpu or cuda)")
-        if self.device == "cuda" and self.method != "chebyshev":
-            raise SolveError("the newton solver runs on the CPU only; use method chebyshev on device cuda")
 
 
 @dataclass
@@ -316,8 +314,8 @@ class Simulator:
             return self._core.solve(x, st, progress)
         if dev != "cuda":
             raise DeviceError(f"unknown device {dev!r} (cpu or cuda)")
-        if st.method != 0:
-            raise SolveError("the newton solver runs on the CPU only; use method chebyshev on device cuda")
+        if st.method == 1:
+            return self.cuda().newton(x, settings=st, progress=progress)
         return self.cuda().solve(x, settings=st, progress=progress)
 
     def _settings(self, tolerance=None, max_iterations=None, method=None, max_seconds=None, smoothing=0):
@@ -368,7 +366,8 @@ class Simulator:
             stops early when the residual stagnates (no 30 % gain over two chunks
             of settings.chunk iterations);
         "polish" (Chebyshev only, settings.polish): Newton from where the settle
-            stage stopped, when it stopped above the tolerance.
+            stage stopped, when it stopped above the tolerance; on the GPU its
+            steps are solved by MINRES there (inexact Newton, docs/gpu.md).
         progress(iteration, residual) is called every settings.progress_every
         iterations, counting over all stages; returning False cancels (reported
         in the result, never raised).
@@ -403,16 +402,18 @@ class Simulator:
         if (s.method == "chebyshev" and do_polish and not rep["converged"] and not rep["cancelled"]
                 and s.polish_iterations > 0):
             x, rep = self._staged(x, "polish", "newton", s.tolerance, s.polish_iterations, relay, offset,
-                                  smoothing=s.polish_smoothing)
+                                  smoothing=s.polish_smoothing, device=device)
             stages.append(rep)
         return self._result(x, stages)
 
-    def polish(self, x, progress: Optional[Callable[[int, float], bool]] = None) -> DrapeResult:
-        """The drape's polish stage alone (Newton with block-Jacobi sweeps) from x."""
+    def polish(self, x, progress: Optional[Callable[[int, float], bool]] = None,
+               device: Optional[str] = None) -> DrapeResult:
+        """The drape's polish stage alone (Newton with block-Jacobi sweeps) from x,
+        on `device` (default settings.device)."""
         s = self.settings
         x, rep = self._staged(self._start(x), "polish", "newton", s.tolerance, s.polish_iterations,
                               (lambda it, res: True) if progress is None else progress, [0],
-                              smoothing=s.polish_smoothing)
+                              smoothing=s.polish_smoothing, device=device)
         return self._result(x, [rep])
 
     def _staged(self, x, stage, method, tolerance, max_iterations, relay, offset, gravity_scale=1.0,
@@ -439,8 +440,7 @@ class Simulator:
                 if s.max_seconds > 0:
                     left = max(s.max_seconds - (time.perf_counter() - t_start), 1e-3)
                 st = self._settings(tolerance, n, method, left, smoothing)
-                x, rep = (self._core.solve(x, st, relay) if method == "newton"
-                          else self._run(x, st, relay, device))
+                x, rep = self._run(x, st, relay, device)
                 total += rep["iterations"]
                 offset[0] += rep["iterations"]
                 merged = self._merge(merged, rep, stage)
@@ -478,7 +478,8 @@ class Simulator:
         if merged is None:
             return rep
         out = dict(rep)
-        for k in ("iterations", "seconds", "restarts", "projections", "rejected_steps", "momentum_restarts"):
+        for k in ("iterations", "seconds", "restarts", "projections", "rejected_steps", "momentum_restarts",
+                  "linear_iterations"):
             out[k] = merged.get(k, 0) + rep.get(k, 0)
         it0, t0 = merged["iterations"], merged["seconds"]
         out["history_iteration"] = list(merged["history_iteration"]) + [it0 + i for i in rep["history_iteration"]]

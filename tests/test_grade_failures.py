@@ -56,3 +56,10 @@ def test_a_target_too_far_for_the_budget_returns_the_best_pattern_marked_not_con
     base = load_pattern(PATTERN)
     grew = [np.ptp(pr.outline_cm[:, 0]) - np.ptp(pb.outline_cm[:, 0]) for pb, pr in zip(base.panels, res.pattern.panels)]
     assert max(grew) > 1.0, grew
+
+
+@pytest.mark.parametrize("bad", [{"adjoint_forcing": -0.1}, {"adjoint_forcing": 1.0},
+                                 {"adjoint_forcing": float("nan")}, {"device": "tpu"}])
+def test_grade_settings_are_refused_by_name(bad):
+    with pytest.raises(SolveError, match=next(iter(bad)).split("_")[0]):
+        GradeSettings(**bad).validate()

@@ -48,7 +48,8 @@ def drape_once(edge_cm: float, device: str, sdf, args) -> dict:
     _, info = base_drape(mesh, pattern, load_body(BODY), sdf, Fabric(),
                          SimSettings(max_seconds=args.stage_seconds, device=device), refresh=True)
     wall = time.perf_counter() - t0
-    return {"edge_length_cm": edge_cm, "device": device, "triangles": int(len(mesh.triangles)),
+    return {"edge_length_cm": edge_cm, "sdf_spacing_mm": 1000 * float(sdf.spacing), "device": device,
+            "triangles": int(len(mesh.triangles)),
             "vertices": int(mesh.n_vertices), "wall_s": wall, **info}
 
 
@@ -73,7 +74,8 @@ def cmd_run(args) -> int:
             try:
                 row = drape_once(edge, device, sdf, args)
             except Exception as exc:  # recorded, not fatal: the other sizes still run
-                row = {"edge_length_cm": edge, "device": device, "error": f"{type(exc).__name__}: {exc}"}
+                row = {"edge_length_cm": edge, "sdf_spacing_mm": 1000 * float(sdf.spacing), "device": device,
+                       "error": f"{type(exc).__name__}: {exc}"}
             rows.append(row)
             atomic_write_text(args.out / "results.json", json.dumps({"meta": meta, "runs": rows}, indent=1))
             if "key" in row:
@@ -98,19 +100,21 @@ def cmd_report(args) -> int:
              "Stages: sew (gravity off), settle, and where the settle stagnates a restart from a coarser "
              "drape; then Newton's polish: on the CPU with a sparse LDL^T per step, on the GPU with MINRES "
              "per step (inexact Newton).", "",
-             "| triangles | device | total s | stages: iterations, s | polish Newton iterations (MINRES) "
-             "| residual | converged |",
-             "|---:|---|---:|---|---:|---:|---|"]
+             "| triangles | edge cm | SDF mm | device | total s | stages: iterations, s "
+             "| polish Newton iterations (MINRES) | residual | converged |",
+             "|---:|---:|---:|---|---:|---|---:|---:|---|"]
     for r in sorted([r for r in runs if "error" not in r], key=lambda r: (r["triangles"], r["device"])):
         st = r.get("stages") or []
         parts = "; ".join(f"{s['stage']}: {s['iterations']:,}, {s['seconds']:.1f}" for s in st)
         pol = [s for s in st if "polish" in s["stage"]]
         pol_s = ", ".join(f"{s['iterations']} ({s.get('linear_iterations') or 0:,})" for s in pol) or "-"
-        lines.append(f"| {r['triangles']:,} | {r['device']} | {r['seconds']:.1f} | {parts} | {pol_s} | "
+        lines.append(f"| {r['triangles']:,} | {r['edge_length_cm']:g} | {r.get('sdf_spacing_mm', 2.5):g} | "
+                     f"{r['device']} | {r['seconds']:.1f} | {parts} | {pol_s} | "
                      f"{r['residual']:.2g} | {'yes' if r['residual'] <= 1e-3 else 'no'} |")
     for r in runs:
         if "error" in r:
-            lines.append(f"\n* {r['edge_length_cm']} cm on {r['device']}: {r['error']}")
+            lines.append(f"\n* {r['edge_length_cm']} cm edge, {r.get('sdf_spacing_mm', 2.5):g} mm SDF, on "
+                         f"{r['device']}: {r['error']}")
     atomic_write_text(args.docs / "base_drape_results.md", "\n".join(lines) + "\n")
     print(f"wrote {args.docs / 'base_drape_results.md'}")
     return 0

@@ -59,7 +59,7 @@ class AdjointSolver:
 
     def __init__(self, simulator, *, psd: bool = False, shift: float = DEFAULT_SHIFT, device: str = "cpu",
                  gpu_tolerance: float = GPU_TOLERANCE, gpu_max_iterations: int = GPU_MAX_ITERATIONS,
-                 equilibrium_tolerance: float | None = None):
+                 equilibrium_tolerance: float | None = None, inexact_forcing: float = 0.0):
         if device not in ("cpu", "cuda"):
             raise SolveError(f"unknown adjoint device {device!r} (cpu or cuda)")
         self.sim = simulator
@@ -70,6 +70,10 @@ class AdjointSolver:
         self.gpu_max_iterations = gpu_max_iterations
         # None: every unconverged GPU solve falls back to the CPU.
         self.equilibrium_tolerance = equilibrium_tolerance
+        # > 0: at an inexact state (residual r above equilibrium_tolerance) MINRES stops at
+        # max(gpu_tolerance, inexact_forcing * r), as inexact Newton does (0: always gpu_tolerance).
+        self.inexact_forcing = float(inexact_forcing)
+        self.relaxed = 0               # GPU solves at inexact states with the relaxed tolerance
         self.truncated = 0             # GPU solves at inexact states kept at MINRES's budget
         self._solve = None
         self.factorizations = 0
@@ -92,7 +96,8 @@ class AdjointSolver:
         if self.device == "cuda":
             d.update(minres_iterations=self.minres_iterations, gpu_fallbacks=self.gpu_fallbacks,
                      truncated=self.truncated, tolerance=self.gpu_tolerance,
-                     max_iterations=self.gpu_max_iterations)
+                     max_iterations=self.gpu_max_iterations, inexact_forcing=self.inexact_forcing,
+                     relaxed=self.relaxed)
         return d
 
     def factorize(self, x) -> None:
@@ -123,12 +128,17 @@ class AdjointSolver:
         gpu = self.sim.cuda()
         g = np.ascontiguousarray(g, dtype=np.float64).reshape(-1, 3)
         lam0 = self._lam if self._lam is not None and self._lam.shape == g.shape else None
-        lam, rep = self._gpu().solve(gpu._gpu, g, lam0, self.gpu_tolerance, self.gpu_max_iterations)
+        residual = None if self.equilibrium_tolerance is None else self.sim.cuda().residual(self._x)
+        inexact = residual is not None and residual > self.equilibrium_tolerance
+        tol = self.gpu_tolerance
+        if inexact and self.inexact_forcing > 0:
+            tol = max(tol, self.inexact_forcing * residual)
+            self.relaxed += 1
+        lam, rep = self._gpu().solve(gpu._gpu, g, lam0, tol, self.gpu_max_iterations)
         self.minres_iterations += int(rep["iterations"])
         self.last_report = rep
         finite = bool(np.all(np.isfinite(lam)))
-        if (not rep["converged"] and finite and rep["status"] == "budget" and self.equilibrium_tolerance is not None
-                and self.sim.cuda().residual(self._x) > self.equilibrium_tolerance):
+        if not rep["converged"] and finite and rep["status"] == "budget" and inexact:
             self.truncated += 1
         elif not rep["converged"] or not finite:
             # The direct solve is exact and robust; it costs a factorization.

@@ -69,6 +69,9 @@ class GradeSettings:
     fixed_point_tolerance_mm: float = 0.1     # fixed-point: converged when no boundary vertex moves more
     fixed_point_regularize: bool = True       # fixed-point: R^fix + R^cur in the pattern update
     device: str = "auto"                      # simulations on auto | cpu | cuda (seamfit.device)
+    # GPU adjoint at inexact states: MINRES tolerance max(1e-8, adjoint_forcing * residual),
+    # no tighter than the state itself is resolved (0: 1e-8 everywhere; docs/gpu.md)
+    adjoint_forcing: float = 1e-2
 
     def resolved_strengths(self) -> Strengths:
         if self.strengths is not None:
@@ -78,6 +81,8 @@ class GradeSettings:
     def validate(self) -> None:
         if self.device not in ("auto", "cpu", "cuda"):
             raise SolveError(f"unknown device {self.device!r}; choose auto, cpu or cuda")
+        if not (0 <= self.adjoint_forcing < 1):
+            raise SolveError(f"adjoint_forcing must lie in [0, 1), got {self.adjoint_forcing}")
         if self.method not in METHODS:
             raise SolveError(f"unknown grading method {self.method!r}; choose one of {', '.join(METHODS)}")
         if self.inner_iterations < 1 or self.checkpoint_every < 1 or self.max_outer_iterations < 0:

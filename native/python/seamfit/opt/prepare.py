@@ -45,8 +45,13 @@ def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, 
     if res.cancelled:
         raise SolveError("cancelled while draping the base garment")
     if not res.converged:
+        edge_mm, spacing_mm = 10.0 * float(mesh.edge_length_cm), 1000.0 * float(sdf.spacing)
+        # Measured at 150K triangles: 2.85 mm edges plateau on a 2.5 mm field, settle on 1.8 mm
+        # (docs/gpu.md, "The base drape on the GPU").
+        hint = (f"; the mesh's edges ({edge_mm:.2g} mm) are near the body field's spacing ({spacing_mm:.2g} mm): "
+                f"a finer SDF spacing may let it settle" if edge_mm < 2 * spacing_mm else "")
         raise SolveError(f"the base garment did not settle on the base body: {res.message} "
-                         f"(residual {res.residual:.3g}); raise max_iterations or check the placement")
+                         f"(residual {res.residual:.3g}); raise max_iterations or check the placement{hint}")
     save_arrays("drape", key, {"x": res.x, "residual": np.float64(res.residual), "seconds": np.float64(res.seconds)})
     stages = [{k: st.get(k) for k in ("stage", "iterations", "seconds", "residual", "converged", "linear_iterations",
                                       "device", "message")} for st in res.stages]
@@ -160,7 +165,8 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     exact_tolerance = settings.exact_tolerance or sim_settings.tolerance
     # An unconverged GPU adjoint solve at a state within 10x the exact tolerance falls
     # back to the CPU; further out it keeps MINRES's iterate (seamfit.opt.adjoint).
-    adjoint = AdjointSolver(sim, device=device, equilibrium_tolerance=10 * exact_tolerance)
+    adjoint = AdjointSolver(sim, device=device, equilibrium_tolerance=10 * exact_tolerance,
+                            inexact_forcing=getattr(settings, "adjoint_forcing", 0.0))
     ctx = GradeContext(
         base_pattern=base_pattern, base_body=base_body, target_body=target_body, settings=settings,
         strengths=strengths, mesh=mesh, base_sdf=base_sdf, target_sdf=target_sdf, xbar=xbar, xtilde=xtilde,

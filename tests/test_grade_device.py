@@ -111,6 +111,9 @@ def test_gpu_grading_matches_the_cpu_as_closely_as_two_cpu_solvers():
     fc, fg = cpu.report["objective_final"], gpu.report["objective_final"]
     print(f"cpu {fc:.5g}, cpu lagged {cpu_lagged.report['objective_final']:.5g}, gpu {fg:.5g}; "
           f"cpu-cpu lagged {spread:.2f} mm, cpu-gpu {apart:.2f} mm")
+    for name, r in (("cpu", cpu), ("cpu lagged", cpu_lagged), ("gpu", gpu)):
+        print(f"{name}: {r.report['message']}; {r.report['outer_iterations']} accepted, "
+              f"{r.report['outer_iterations_done']} done; base drape {r.report['base_drape']}")
     assert gpu.report["device"] == "cuda"
     assert apart <= spread + 0.5, (apart, spread)
     fl = cpu_lagged.report["objective_final"]

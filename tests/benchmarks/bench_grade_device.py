@@ -277,7 +277,7 @@ def main(argv=None) -> int:
     r.add_argument("--time-budget", type=float, default=0.0, help="seconds per grading (default none)")
     r.add_argument("--stage-seconds", type=float, default=120.0, help="time budget per drape stage")
     r.add_argument("--sdf-spacing", type=float, default=0.0025, help="body SDF spacing in metres")
-    r.add_argument("--adjoint-forcing", type=float, default=1e-2,
+    r.add_argument("--adjoint-forcing", type=float, default=0.0,
                    help="GPU adjoint tolerance at inexact states: max(1e-8, F * residual)")
     r.set_defaults(func=cmd_run)
     c = sub.add_parser("curves")

@@ -77,6 +77,10 @@ def register(subparsers) -> None:
                    help="where the simulations and the adjoint solve run (default auto: the GPU when one is "
                         "present and the garment is large enough to pay; the costs and df/dp run on the CPU); "
                         "cuda fails at once with the reason when no GPU or CUDA build is present")
+    p.add_argument("--adjoint-forcing", metavar="F", type=float, default=d.adjoint_forcing,
+                   help="on the GPU, solve the adjoint at inexact states only to F x the state's residual "
+                        "(default 0: to 1e-8 everywhere, the CPU's search; 0.01 is faster and takes another "
+                        "path of the search, docs/gpu.md)")
     p.add_argument("--no-picture", action="store_true", help="do not write drape.png and pattern.png")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
@@ -103,7 +107,8 @@ def run(args) -> int:
     settings = GradeSettings(preset=args.preset, strengths=strengths, method=args.method, edge_length_cm=args.edge_length,
                              sdf_spacing=args.sdf_spacing, inner_iterations=args.inner_iterations,
                              checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,
-                             time_budget_s=args.time_budget, device=args.device)
+                             time_budget_s=args.time_budget, device=args.device,
+                             adjoint_forcing=args.adjoint_forcing)
     t0 = time.perf_counter()
 
     def progress(info):

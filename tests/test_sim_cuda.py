@@ -208,10 +208,32 @@ def test_float32_rest_state_stays_within_its_rounding(device, skirt):
     assert 0 < err <= 2.0 * degree * Y * 2.0**-24
 
 
+@pytest.mark.parametrize("device", GPU_DEVICES)
+@pytest.mark.parametrize("float_rest", [False, True])
+def test_dfdp_product_matches_cpu(device, float_rest, skirt):
+    """(df/dp)^T lam on the GPU against the CPU's, with all its terms: springs, hinges,
+    gravity and the barrier (vertices near the body) through the masses; after a new
+    pattern and shirring, which it reads from the CPU simulator at each call. The
+    rest state is read in float64 even where the solver stores it in float32."""
+    mesh, sdf = skirt
+    sim = Simulator(mesh, sdf, Fabric(), SimSettings(barrier_distance=0.03))
+    x = sim.solve(mesh.x0, max_iterations=400).x
+    assert np.min(sim.phi(x)) < 0.03  # the barrier is active somewhere
+    ev = evaluator(sim, device, float_rest=float_rest)
+    lam = np.random.default_rng(5).standard_normal(x.shape)
+    for step in range(2):
+        ref = sim.dfdp_T(x, lam)
+        got = ev.dfdp_T(x, lam)
+        scale = np.abs(ref).max()
+        assert scale > 0 and np.abs(got - ref).max() <= 1e-12 * scale
+        sim.set_pattern(1.02 * sim.p)
+        sim.set_shirring(np.linspace(0.95, 1.05, sim.core.n_springs))
+
+
 if not GPU_DEVICES:
-    # float32 storage exists on the GPU alone: without a GPU there is nothing to collect
-    # (rather than a test reported as skipped).
-    del test_float32_rest_state_stays_within_its_rounding
+    # float32 storage and the GPU's df/dp exist on the GPU alone: without a GPU there is
+    # nothing to collect (rather than tests reported as skipped).
+    del test_float32_rest_state_stays_within_its_rounding, test_dfdp_product_matches_cpu
 
 
 def sheet_on_ball(device, tol, **gpu_options):

@@ -13,6 +13,7 @@
 
 #include "sim/simulator.hpp"
 #include "adjoint_gpu.hpp"
+#include "dfdp_gpu.hpp"
 #include "newton_gpu.hpp"
 #include "sim_gpu.hpp"
 #include "sim_report.hpp"
@@ -54,6 +55,20 @@ py::dict report_dict(const SolveReport& r, const SimGpu& g) {
   py::dict d = seamfit::bindings::report_dict(r);
   d["device"] = g.device_name();
   return d;
+}
+
+// A solve from a copy of x0: (x, report dict), run(x, progress, cancel) with the
+// GIL released and progress relayed to Python.
+template <class Run>
+py::tuple solve_from(SimGpu& g, const DArr& x0, const py::object& progress, Run&& run) {
+  require_x(g, x0);
+  const int n = g.simulator().n_vertices();
+  py::array_t<double> x({py::ssize_t(n), py::ssize_t(3)});
+  std::copy(x0.data(), x0.data() + 3 * size_t(n), x.mutable_data());
+  double* xp = x.mutable_data();
+  const SolveReport rep = with_progress(progress, [&](const seamfit::sim::ProgressFn& fn,
+                                                      const std::atomic<bool>* cancel) { return run(xp, fn, cancel); });
+  return py::make_tuple(x, report_dict(rep, g));
 }
 
 }  // namespace
@@ -134,31 +149,19 @@ void bind_cuda_sim(py::module_& m) {
            py::arg("x"), py::arg("v"), py::arg("psd") = false)
       .def("solve",
            [](SimGpu& g, DArr x0, const SolveSettings& st, py::object progress) {
-             require_x(g, x0);
-             const int n = g.simulator().n_vertices();
-             py::array_t<double> x({py::ssize_t(n), py::ssize_t(3)});
-             std::copy(x0.data(), x0.data() + 3 * size_t(n), x.mutable_data());
-             double* xp = x.mutable_data();
-             const SolveReport rep = with_progress(progress, [&](const seamfit::sim::ProgressFn& fn,
-                                                                 const std::atomic<bool>* cancel) {
+             return solve_from(g, x0, progress, [&](double* xp, const seamfit::sim::ProgressFn& fn,
+                                                    const std::atomic<bool>* cancel) {
                return g.solve(xp, st, fn, cancel);
              });
-             return py::make_tuple(x, report_dict(rep, g));
            },
            py::arg("x"), py::arg("settings"), py::arg("progress") = py::none())
       .def("newton",
            [](SimGpu& g, Simulator& sim, seamfit::cuda::AdjointGpu& lin, DArr x0, const SolveSettings& st,
               py::object progress, int max_linear_iterations) {
-             require_x(g, x0);
-             const int n = g.simulator().n_vertices();
-             py::array_t<double> x({py::ssize_t(n), py::ssize_t(3)});
-             std::copy(x0.data(), x0.data() + 3 * size_t(n), x.mutable_data());
-             double* xp = x.mutable_data();
-             const SolveReport rep = with_progress(progress, [&](const seamfit::sim::ProgressFn& fn,
-                                                                 const std::atomic<bool>* cancel) {
+             return solve_from(g, x0, progress, [&](double* xp, const seamfit::sim::ProgressFn& fn,
+                                                    const std::atomic<bool>* cancel) {
                return seamfit::cuda::newton_on_gpu(sim, g, lin, xp, st, fn, cancel, max_linear_iterations);
              });
-             return py::make_tuple(x, report_dict(rep, g));
            },
            py::arg("simulator"), py::arg("adjoint"), py::arg("x"), py::arg("settings"),
            py::arg("progress") = py::none(), py::arg("max_linear_iterations") = 5000,
@@ -237,6 +240,27 @@ void bind_cuda_sim(py::module_& m) {
            py::arg("gpu"), py::arg("g"), py::arg("lam0") = py::none(), py::arg("tolerance") = 1e-6,
            py::arg("max_iterations") = 20000, py::arg("batch") = 32, py::arg("persistent") = true,
            "Solve H lam = g from lam0 (zeros if None); returns (lam, report).");
+
+  using seamfit::cuda::DfdpGpu;
+  py::class_<DfdpGpu>(m, "CudaDfdp",
+                      "The matrix-free product (df/dp)^T lam of the adjoint gradient on the GPU.")
+      .def(py::init([](SimGpu& g) { return new DfdpGpu(g); }), py::arg("gpu"),
+           py::keep_alive<1, 2>())  // the GPU simulator must outlive it
+      .def("apply",
+           [](DfdpGpu& d, SimGpu& g, DArr x, DArr lam) {
+             require_x(g, x);
+             require_x(g, lam);
+             require_outside(g, x.data());
+             py::array_t<double> out({py::ssize_t(g.simulator().n_vertices()), py::ssize_t(2)});
+             double* op = out.mutable_data();
+             {
+               py::gil_scoped_release nogil;
+               d.apply(x.data(), lam.data(), op);
+             }
+             return out;
+           },
+           py::arg("gpu"), py::arg("x"), py::arg("lam"),
+           "(df/dp)^T lam (n, 2) at x for the simulator's current pattern and parameters.");
 #else
   (void)m;
 #endif

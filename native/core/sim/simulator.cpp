@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "sim/dfdp.hpp"
 #include "sim/jacobi_step.hpp"
 #include "sim/terms/barrier.hpp"
 #include "sim/terms/bending.hpp"
@@ -263,6 +264,17 @@ SimArrays Simulator::arrays() const {
   a.stick_k = stick_k_.data();
   a.stick_t = stick_t_.data();
   a.any_sticking = any_sticking_;
+  a.p = p_.data();
+  a.n_tris = n_triangles();
+  a.n_hinges = n_hinges();
+  a.tris = tris_.data();
+  a.vt_ptr = vt_ptr_.data();
+  a.vt_idx = vt_idx_.data();
+  a.hinge_v = hinge_v_.data();
+  a.vh_ptr = vh_ptr_.data();
+  a.vh_idx = vh_idx_.data();
+  a.L_floored = L_floored_.data();
+  a.m_floor = m_floor_;
   a.has_sdf = has_sdf_;
   a.sdf = sdf_;
   a.sdf_revision = sdf_revision_;
@@ -640,50 +652,18 @@ void Simulator::dfdp_T(const double* x, const double* lam, double* out) {
     const double sb = params_.mu * params_.barrier_length * kG0;
 #pragma omp parallel for schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
-      const Vec3 lv = vget(lam, v);
-      double w = dot(gv, lv);
-      if (bar && mass_[v] >= m_floor_) {
-        const SdfSample s = sdf_at(vget(x, v));
-        // lam . f = -b'(phi) grad.lam with b' proportional to c = sb * m
-        if (s.phi > 0) w -= sb * barrier_dphi(1.0, params_.barrier_distance, s.phi) * dot(s.grad, lv);
-      }
-      wv[v] = w;
+      const bool b = bar && mass_[v] >= m_floor_;
+      const SdfSample s = b ? sdf_at(vget(x, v)) : SdfSample{};
+      wv[v] = dfdp_mass_weight(gv, vget(lam, v), b, s, sb, params_.barrier_distance);
     }
     const double rho3 = params_.density / 3.0;
 #pragma omp parallel for schedule(static) num_threads(threads_)
-    for (int t = 0; t < T; ++t) {
-      const int a = tris_[3 * t], b = tris_[3 * t + 1], c = tris_[3 * t + 2];
-      const double s = rho3 * (wv[a] + wv[b] + wv[c]);
-      double g[6];
-      tri_area_2d_grad(&p_[2 * a], &p_[2 * b], &p_[2 * c], g);
-      for (int k = 0; k < 6; ++k) tp[6 * t + k] = s * g[k];
-    }
+    for (int t = 0; t < T; ++t) dfdp_triangle(p_.data(), &tris_[3 * t], wv, rho3, tp + 6 * t);
   }
 #pragma omp parallel for schedule(static) num_threads(threads_)
-  for (int v = 0; v < n_; ++v) {
-    double u = 0, w = 0;
-    if (Y > 0)
-      for (int k = vs_ptr_[v]; k < vs_ptr_[v + 1]; ++k) {
-        const int e = vs_idx_[k] >> 1;
-        const double sg = (vs_idx_[k] & 1) ? -1.0 : 1.0;
-        u += sg * sp[2 * e];
-        w += sg * sp[2 * e + 1];
-      }
-    if (kb > 0)
-      for (int k = vh_ptr_[v]; k < vh_ptr_[v + 1]; ++k) {
-        const int h = vh_idx_[k] >> 2, s = vh_idx_[k] & 3;
-        u += hp[8 * h + 2 * s];
-        w += hp[8 * h + 2 * s + 1];
-      }
-    if (mass_terms)
-      for (int k = vt_ptr_[v]; k < vt_ptr_[v + 1]; ++k) {
-        const int t = vt_idx_[k] / 3, s = vt_idx_[k] % 3;
-        u += tp[6 * t + 2 * s];
-        w += tp[6 * t + 2 * s + 1];
-      }
-    out[2 * v] = u;
-    out[2 * v + 1] = w;
-  }
+  for (int v = 0; v < n_; ++v)
+    dfdp_gather(v, vs_ptr_.data(), vs_idx_.data(), Y > 0 ? sp : nullptr, vh_ptr_.data(), vh_idx_.data(),
+                kb > 0 ? hp : nullptr, vt_ptr_.data(), vt_idx_.data(), mass_terms ? tp : nullptr, out + 2 * v);
 }
 
 void Simulator::sewing_gaps(const double* x, double* gaps) const {

@@ -124,6 +124,15 @@ struct SimArrays {
   const double *mass = nullptr, *barrier_c = nullptr;           // n
   const double *stick_k = nullptr, *stick_t = nullptr;          // n, 3n
   bool any_sticking = false;
+  // For (df/dp)^T lam: the pattern, the triangles and hinges with their
+  // incidence, springs whose rest length is floored (no p-derivative) and the
+  // mass floor below which a vertex's barrier weight does not follow its mass.
+  const double* p = nullptr;                                    // 2n
+  int n_tris = 0, n_hinges = 0;
+  const int32_t *tris = nullptr, *vt_ptr = nullptr, *vt_idx = nullptr;     // 3T; triangles at a vertex: t*3 + k
+  const int32_t *hinge_v = nullptr, *vh_ptr = nullptr, *vh_idx = nullptr;  // 4H; hinges at a vertex: h*4 + k
+  const uint8_t* L_floored = nullptr;                           // E
+  double m_floor = 0;
   bool has_sdf = false;
   SdfGridView sdf;            // host memory
   uint64_t sdf_revision = 0;  // changes whenever set_sdf / clear_sdf runs

@@ -186,4 +186,6 @@ class AdjointSolver:
         if refactor or self._solve is None:
             self.factorize(x)
         lam = self.solve(grad_x)
-        return np.asarray(grad_p, dtype=float).reshape(-1, 2) + self.sim.dfdp_T(x, lam.reshape(-1, 3))
+        # On the GPU the product runs there too (the rest state is read at each call).
+        dfdp = self.sim.cuda().dfdp_T if self.device == "cuda" else self.sim.dfdp_T
+        return np.asarray(grad_p, dtype=float).reshape(-1, 2) + dfdp(x, lam.reshape(-1, 3))

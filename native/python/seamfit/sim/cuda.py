@@ -59,6 +59,7 @@ class CudaSimulator:
         self._gpu = core().CudaSimulator(self._core_sim, device=device, block=block, lanes=lanes, batch=batch,
                                          use_graph=use_graph, float_rest=float_rest, fuse_control=fuse_control)
         self._adjoint = None  # CudaAdjoint for Newton's steps, made on first use
+        self._dfdp = None     # CudaDfdp, made on first use
 
     @property
     def device_name(self) -> str:
@@ -118,6 +119,14 @@ class CudaSimulator:
         if sync:
             self._gpu.sync()
         return self._gpu.solve(np.asarray(x0, dtype=np.float64).reshape(-1, 3), st, progress)
+
+    def dfdp_T(self, x, lam) -> np.ndarray:
+        """(df/dp)^T lam, shape (N, 2), on the GPU: the adjoint gradient's matrix-free
+        product, from the same element functions as Simulator.dfdp_T."""
+        if self._dfdp is None:
+            self._dfdp = core().CudaDfdp(self._gpu)
+        return self._dfdp.apply(self._gpu, np.asarray(x, dtype=np.float64).reshape(-1, 3),
+                                np.asarray(lam, dtype=np.float64).reshape(-1, 3))
 
     def newton(self, x0, *, settings=None, progress: Optional[Callable[[int, float], bool]] = None,
                max_linear_iterations: int = 5000, sync: bool = True) -> tuple[np.ndarray, dict]:

@@ -1,0 +1,188 @@
+#include "dfdp_gpu.hpp"
+
+#include <cuda_runtime.h>
+
+#include <vector>
+
+#include "dev_buffer.cuh"
+#include "sim/dfdp.hpp"
+#include "sim/simulator.hpp"
+#include "sim/terms/bending.hpp"
+#include "sim/terms/spring.hpp"
+#include "sim_iteration.cuh"
+
+namespace seamfit::cuda {
+
+namespace {
+
+constexpr int kBlock = 128;
+
+struct Arrays {
+  int n = 0, E = 0, T = 0, H = 0;
+  const double *p = nullptr, *x = nullptr, *lam = nullptr, *rest_L = nullptr, *shirring = nullptr, *mass = nullptr;
+  const int32_t *spring_v = nullptr, *vs_ptr = nullptr, *vs_idx = nullptr;
+  const int32_t *tris = nullptr, *vt_ptr = nullptr, *vt_idx = nullptr;
+  const int32_t *hinge_v = nullptr, *vh_ptr = nullptr, *vh_idx = nullptr;
+  const uint8_t* L_floored = nullptr;
+  double *sp = nullptr, *hp = nullptr, *tp = nullptr, *wv = nullptr, *out = nullptr;
+  double Y = 0, kb = 0, rho3 = 0, sb = 0, dhat = 0, m_floor = 0;
+  Vec3 gv{0, 0, 0};
+  bool bar = false, smooth = true;
+  SdfGridView sdf;
+};
+
+__global__ void k_springs(Arrays a) {
+  const int e = blockIdx.x * blockDim.x + threadIdx.x;
+  if (e >= a.E) return;
+  if (a.L_floored[e]) {
+    a.sp[2 * e] = a.sp[2 * e + 1] = 0;
+    return;
+  }
+  const int i = a.spring_v[2 * e], j = a.spring_v[2 * e + 1];
+  sim::patch_spring_dfdp_T(load3(a.x, i), load3(a.x, j), load3(a.lam, i), load3(a.lam, j), a.p[2 * i],
+                           a.p[2 * i + 1], a.p[2 * j], a.p[2 * j + 1], a.rest_L[e], a.shirring[e], a.Y,
+                           a.sp + 2 * e);
+}
+
+__global__ void k_hinges(Arrays a) {
+  const int h = blockIdx.x * blockDim.x + threadIdx.x;
+  if (h >= a.H) return;
+  double pp[8];
+  Vec3 xx[4], ll[4];
+  for (int k = 0; k < 4; ++k) {
+    const int v = a.hinge_v[4 * h + k];
+    pp[2 * k] = a.p[2 * v];
+    pp[2 * k + 1] = a.p[2 * v + 1];
+    xx[k] = load3(a.x, v);
+    ll[k] = load3(a.lam, v);
+  }
+  sim::hinge_dfdp_T(pp, xx, ll, a.kb, a.hp + 8 * h);
+}
+
+__global__ void k_weights(Arrays a) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= a.n) return;
+  const bool b = a.bar && a.mass[v] >= a.m_floor;
+  const SdfSample s = b ? sim::barrier_field(a.sdf, a.smooth, load3(a.x, v)) : SdfSample{};
+  a.wv[v] = sim::dfdp_mass_weight(a.gv, load3(a.lam, v), b, s, a.sb, a.dhat);
+}
+
+__global__ void k_triangles(Arrays a) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= a.T) return;
+  sim::dfdp_triangle(a.p, a.tris + 3 * t, a.wv, a.rho3, a.tp + 6 * t);
+}
+
+__global__ void k_gather(Arrays a) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= a.n) return;
+  sim::dfdp_gather(v, a.vs_ptr, a.vs_idx, a.Y > 0 ? a.sp : nullptr, a.vh_ptr, a.vh_idx, a.kb > 0 ? a.hp : nullptr,
+                   a.vt_ptr, a.vt_idx, a.rho3 != 0 ? a.tp : nullptr, a.out + 2 * v);
+}
+
+int blocks(int n) { return (n + kBlock - 1) / kBlock; }
+
+}  // namespace
+
+struct DfdpGpu::Impl {
+  SimGpu* gpu = nullptr;
+  cudaStream_t stream = nullptr;
+  DevBuf spring_v, vs_ptr, vs_idx, tris, vt_ptr, vt_idx, hinge_v, vh_ptr, vh_idx;  // topology, once
+  DevBuf p, rest_L, shirring, mass, L_floored, x, lam, sp, hp, tp, wv, out;       // per call
+};
+
+DfdpGpu::DfdpGpu(SimGpu& gpu) : impl_(new Impl) {
+  Impl& I = *impl_;
+  I.gpu = &gpu;
+  I.stream = static_cast<cudaStream_t>(gpu.stream_handle());
+  const sim::SimArrays a = gpu.simulator().arrays();
+  upload(I.spring_v, a.spring_v, 2 * size_t(a.n_springs), I.stream);
+  upload(I.vs_ptr, a.vs_ptr, size_t(a.n) + 1, I.stream);
+  upload(I.vs_idx, a.vs_idx, size_t(a.vs_ptr[a.n]), I.stream);
+  upload(I.tris, a.tris, 3 * size_t(a.n_tris), I.stream);
+  upload(I.vt_ptr, a.vt_ptr, size_t(a.n) + 1, I.stream);
+  upload(I.vt_idx, a.vt_idx, size_t(a.vt_ptr[a.n]), I.stream);
+  upload(I.hinge_v, a.hinge_v, 4 * size_t(a.n_hinges), I.stream);
+  upload(I.vh_ptr, a.vh_ptr, size_t(a.n) + 1, I.stream);
+  upload(I.vh_idx, a.vh_idx, size_t(a.vh_ptr[a.n]), I.stream);
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+}
+
+DfdpGpu::~DfdpGpu() = default;
+
+void DfdpGpu::apply(const double* x, const double* lam, double* out) {
+  Impl& I = *impl_;
+  const sim::Simulator& S = I.gpu->simulator();
+  const sim::SimArrays h = S.arrays();
+  const sim::SimParams& P = S.params();
+  const int n = h.n, E = h.n_springs, T = h.n_tris, H = h.n_hinges;
+  upload(I.p, h.p, 2 * size_t(n), I.stream);
+  upload(I.rest_L, h.rest_L, size_t(E), I.stream);
+  upload(I.shirring, h.shirring, size_t(E), I.stream);
+  upload(I.mass, h.mass, size_t(n), I.stream);
+  upload(I.L_floored, h.L_floored, size_t(E), I.stream);
+  upload(I.x, x, 3 * size_t(n), I.stream);
+  upload(I.lam, lam, 3 * size_t(n), I.stream);
+  I.sp.reserve(2 * size_t(E) * sizeof(double));
+  I.hp.reserve(8 * size_t(H) * sizeof(double));
+  I.tp.reserve(6 * size_t(T) * sizeof(double));
+  I.wv.reserve(size_t(n) * sizeof(double));
+  I.out.reserve(2 * size_t(n) * sizeof(double));
+
+  Arrays a;
+  a.n = n;
+  a.E = P.stretch_Y > 0 ? E : 0;
+  a.H = P.bend_kb > 0 ? H : 0;
+  a.p = I.p.as<double>();
+  a.x = I.x.as<double>();
+  a.lam = I.lam.as<double>();
+  a.rest_L = I.rest_L.as<double>();
+  a.shirring = I.shirring.as<double>();
+  a.mass = I.mass.as<double>();
+  a.spring_v = I.spring_v.as<int32_t>();
+  a.vs_ptr = I.vs_ptr.as<int32_t>();
+  a.vs_idx = I.vs_idx.as<int32_t>();
+  a.tris = I.tris.as<int32_t>();
+  a.vt_ptr = I.vt_ptr.as<int32_t>();
+  a.vt_idx = I.vt_idx.as<int32_t>();
+  a.hinge_v = I.hinge_v.as<int32_t>();
+  a.vh_ptr = I.vh_ptr.as<int32_t>();
+  a.vh_idx = I.vh_idx.as<int32_t>();
+  a.L_floored = I.L_floored.as<uint8_t>();
+  a.sp = I.sp.as<double>();
+  a.hp = I.hp.as<double>();
+  a.tp = I.tp.as<double>();
+  a.wv = I.wv.as<double>();
+  a.out = I.out.as<double>();
+  a.Y = P.stretch_Y;
+  a.kb = P.bend_kb;
+  a.gv = P.gravity;
+  a.bar = h.has_sdf && P.mu > 0;
+  // As the CPU: the mass terms only where there is gravity or a barrier.
+  const bool mass_terms = P.density > 0 && (norm2(P.gravity) > 0 || a.bar);
+  a.rho3 = mass_terms ? P.density / 3.0 : 0.0;
+  a.T = mass_terms ? T : 0;
+  a.sb = P.mu * P.barrier_length * sim::kG0;
+  a.dhat = P.barrier_distance;
+  a.m_floor = h.m_floor;
+  a.smooth = P.barrier_smooth;
+  if (a.bar) {
+    // The body field in device memory, as the GPU simulator holds it.
+    if (I.gpu->options().float_rest)
+      a.sdf = static_cast<const DevModel<float>*>(I.gpu->device_model())->sdf;
+    else
+      a.sdf = static_cast<const DevModel<double>*>(I.gpu->device_model())->sdf;
+  }
+  if (a.E) k_springs<<<blocks(a.E), kBlock, 0, I.stream>>>(a);
+  if (a.H) k_hinges<<<blocks(a.H), kBlock, 0, I.stream>>>(a);
+  if (a.T) {
+    k_weights<<<blocks(n), kBlock, 0, I.stream>>>(a);
+    k_triangles<<<blocks(a.T), kBlock, 0, I.stream>>>(a);
+  }
+  k_gather<<<blocks(n), kBlock, 0, I.stream>>>(a);
+  SF_CUDA(cudaGetLastError());
+  SF_CUDA(cudaMemcpyAsync(out, a.out, 2 * size_t(n) * sizeof(double), cudaMemcpyDeviceToHost, I.stream));
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+}
+
+}  // namespace seamfit::cuda

@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 
 #include "bindings.hpp"
+#include "py_cost_set.hpp"
 
 #ifdef SEAMFIT_WITH_CUDA
 #include <atomic>
@@ -13,6 +14,7 @@
 
 #include "sim/simulator.hpp"
 #include "adjoint_gpu.hpp"
+#include "costs_gpu.hpp"
 #include "dfdp_gpu.hpp"
 #include "newton_gpu.hpp"
 #include "sim_gpu.hpp"
@@ -261,6 +263,33 @@ void bind_cuda_sim(py::module_& m) {
            },
            py::arg("gpu"), py::arg("x"), py::arg("lam"),
            "(df/dp)^T lam (n, 2) at x for the simulator's current pattern and parameters.");
+
+  using seamfit::cuda::CostSetGpu;
+  py::class_<CostSetGpu>(m, "CudaCostSet",
+                         "The fitting costs (Eq. 11-16) and their gradients on the GPU, mirroring a CostSet.")
+      .def(py::init([](PyCostSet& c) { return new CostSetGpu(*c.cs); }), py::arg("cost_set"),
+           py::keep_alive<1, 2>())  // the CPU cost set (strengths, counters) must outlive it
+      .def("evaluate",
+           [](CostSetGpu& g, PyCostSet& c, DArr x, DArr p) {
+             const int n = c.cs->n_vertices();
+             if (x.ndim() != 2 || x.shape(0) != n || x.shape(1) != 3)
+               throw py::value_error("x must have shape (" + std::to_string(n) + ", 3)");
+             if (p.ndim() != 2 || p.shape(0) != n || p.shape(1) != 2)
+               throw py::value_error("p must have shape (" + std::to_string(n) + ", 2)");
+             py::array_t<double> gx({py::ssize_t(n), py::ssize_t(3)}), gp({py::ssize_t(n), py::ssize_t(2)});
+             double* gxp = gx.mutable_data();
+             double* gpp = gp.mutable_data();
+             std::array<double, seamfit::opt::kNumCostTerms> t{};
+             double v;
+             try {
+               py::gil_scoped_release nogil;
+               v = g.evaluate(x.data(), p.data(), gxp, gpp, &t);
+             } catch (const std::logic_error& e) {
+               throw py::value_error(e.what());
+             }
+             return py::make_tuple(v, cost_terms_dict(t), gx, gp);
+           },
+           py::arg("cost_set"), py::arg("x"), py::arg("p"), "-> (value, terms, grad_x, grad_p), as CostSet.evaluate");
 #else
   (void)m;
 #endif

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "py_cost_set.hpp"
 #include "body/sdf_grid.hpp"
 #include "opt/cost_set.hpp"
 #include "opt/parametrization.hpp"
@@ -70,11 +71,6 @@ SdfGridView grid_view(const FArr& values, const DArr& origin, double spacing) {
   return g;
 }
 
-// CostSet plus the arrays its non-owning SDF view points into.
-struct PyCostSet {
-  std::unique_ptr<opt::CostSet> cs;
-  FArr sdf_values;
-};
 
 py::dict hits_to_dict(const std::vector<opt::TransferHit>& hits) {
   const py::ssize_t n = py::ssize_t(hits.size());
@@ -292,12 +288,7 @@ void bind_opt(py::module_& m) {
              } catch (const std::logic_error& e) {
                throw py::value_error(e.what());
              }
-             py::dict terms;
-             terms["dis"] = t[opt::kDistance];
-             terms["smo"] = t[opt::kSmoothness];
-             terms["str"] = t[opt::kStretching];
-             terms["pos"] = t[opt::kPositional];
-             return py::make_tuple(v, terms, gx, gp);
+             return py::make_tuple(v, cost_terms_dict(t), gx, gp);
            }, py::arg("x"), py::arg("p"), "-> (value, terms, grad_x, grad_p)")
       .def_property_readonly("evaluations", [](const PyCostSet& c) {
              const auto& e = c.cs->evaluations();

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "opt/costs/distance.hpp"
+#include "opt/costs/gather.hpp"
 #include "opt/costs/positional.hpp"
 #include "opt/costs/smoothness.hpp"
 #include "opt/costs/stretching.hpp"
@@ -54,6 +55,30 @@ void CostSet::set_positional(const Vec3* xtilde, const double* u) {
   xtilde_.assign(xtilde, xtilde + n_);
   u_.assign(u, u + n_);
   has_pos_ = true;
+}
+
+CostSetView CostSet::view() const {
+  CostSetView v;
+  v.n = n_;
+  v.n_edges = int(edges_.size());
+  v.n_hinges = int(hinges_.size());
+  v.edges = edges_.empty() ? nullptr : &edges_[0][0];
+  v.rbar = rbar_.data();
+  v.hinges = hinges_.empty() ? nullptr : &hinges_[0][0];
+  v.hinge_w = hinge_w_.empty() ? nullptr : hinge_w_[0].data();
+  v.cbar = cbar_.data();
+  v.sbar = sbar_.data();
+  v.edge_offsets = edge_gather_.offsets.data();
+  v.edge_slots = edge_gather_.slots.data();
+  v.hinge_offsets = hinge_gather_.offsets.data();
+  v.hinge_slots = hinge_gather_.slots.data();
+  v.has_sdf = has_sdf_;
+  v.has_pos = has_pos_;
+  v.sdf = sdf_;
+  v.phibar = phibar_.data();
+  v.xtilde = xtilde_.data();
+  v.u = u_.data();
+  return v;
 }
 
 // Below this many elements a loop runs on one thread: spawning a team costs more than it
@@ -115,11 +140,10 @@ double CostSet::evaluate(const Vec3* x, const Vec2* p, Vec3* gx, Vec2* gp,
                                 &slot_p_[2 * e], &slot_p_[2 * e + 1]);
     }
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
-    for (int v = 0; v < n; ++v)
-      for (int s = edge_gather_.offsets[v]; s < edge_gather_.offsets[v + 1]; ++s) {
-        gx[v] += slot_x_[edge_gather_.slots[s]];
-        gp[v] += slot_p_[edge_gather_.slots[s]];
-      }
+    for (int v = 0; v < n; ++v) {
+      gather_add(v, edge_gather_.offsets.data(), edge_gather_.slots.data(), slot_x_.data(), gx[v]);
+      gather_add(v, edge_gather_.offsets.data(), edge_gather_.slots.data(), slot_p_.data(), gp[v]);
+    }
     t[kStretching] = serial_sum(val_, ne);
   }
 
@@ -137,8 +161,7 @@ double CostSet::evaluate(const Vec3* x, const Vec2* p, Vec3* gx, Vec2* gp,
     }
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
     for (int v = 0; v < n; ++v)
-      for (int s = hinge_gather_.offsets[v]; s < hinge_gather_.offsets[v + 1]; ++s)
-        gx[v] += slot_x_[hinge_gather_.slots[s]];
+      gather_add(v, hinge_gather_.offsets.data(), hinge_gather_.slots.data(), slot_x_.data(), gx[v]);
     t[kSmoothness] = serial_sum(val_, nh);
   }
 

@@ -21,6 +21,24 @@ struct CostStrengths {
   double dis = 0, smo = 0, str = 0, pos = 0;
 };
 
+// Read-only view of a CostSet's constant data, for a backend that mirrors it (the
+// CUDA cost set copies it to the device).
+struct CostSetView {
+  int n = 0, n_edges = 0, n_hinges = 0;
+  const int* edges = nullptr;            // 2 per edge
+  const double* rbar = nullptr;          // per edge
+  const int* hinges = nullptr;           // 4 per hinge
+  const double* hinge_w = nullptr;       // 4 per hinge
+  const double *cbar = nullptr, *sbar = nullptr;   // per hinge
+  const int *edge_offsets = nullptr, *edge_slots = nullptr;    // gather: n + 1, 2E
+  const int *hinge_offsets = nullptr, *hinge_slots = nullptr;  // gather: n + 1, 4H
+  bool has_sdf = false, has_pos = false;
+  SdfGridView sdf;                       // host memory
+  const double* phibar = nullptr;        // n (with the field)
+  const Vec3* xtilde = nullptr;          // n (positional)
+  const double* u = nullptr;             // n (positional)
+};
+
 class CostSet {
  public:
   // pbar: (n, 2) base pattern in metres; xbar: (n, 3) base garment on the base body.
@@ -45,6 +63,9 @@ class CostSet {
   const std::vector<double>& stretch_ratio_bar() const { return rbar_; }
   // How many times each term has been evaluated (zero-strength terms stay at zero).
   const std::array<long long, kNumCostTerms>& evaluations() const { return evals_; }
+  // Counted by a backend that evaluates this set elsewhere.
+  void count_evaluation(CostTerm t) { ++evals_[t]; }
+  CostSetView view() const;
 
  private:
   int n_;

@@ -98,9 +98,30 @@ class CostSet:
             u = positional_weights(mesh) if positional_weight is None else np.asarray(positional_weight, float)
             self._native.set_positional(np.ascontiguousarray(xtilde, dtype=float), u)
 
+    _gpu = None  # CudaCostSet mirror when evaluating on the GPU
+
+    def use_device(self, device: str) -> None:
+        """Evaluate on "cpu" or on "cuda": a GPU mirror of the terms' constant data
+        (the same element functions; strengths are still read from this set)."""
+        if device == "cuda":
+            from ..sim.cuda import require_cuda
+            require_cuda()
+            self._gpu = core().CudaCostSet(self._native)
+        elif device == "cpu":
+            self._gpu = None
+        else:
+            raise SolveError(f"unknown cost device {device!r} (cpu or cuda)")
+
+    @property
+    def device(self) -> str:
+        return "cpu" if self._gpu is None else "cuda"
+
     def evaluate(self, x, p):
         """-> (value, {"dis", "smo", "str", "pos"}, grad_x (N, 3), grad_p (N, 2))."""
-        return self._native.evaluate(np.asarray(x, dtype=float), np.asarray(p, dtype=float))
+        x, p = np.asarray(x, dtype=float), np.asarray(p, dtype=float)
+        if self._gpu is not None:
+            return self._gpu.evaluate(self._native, x, p)
+        return self._native.evaluate(x, p)
 
     @property
     def evaluations(self) -> dict:

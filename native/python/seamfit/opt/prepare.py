@@ -161,6 +161,8 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     if seam.active and getattr(settings, "seam_in_preconditioner", True):
         regs.add_to_preconditioner(seam.gauss_newton())
     costs = CostSet(mesh, xbar, strengths, target_sdf=target_sdf, base_sdf=base_sdf, xtilde=xtilde)
+    if device == "cuda":
+        costs.use_device("cuda")
     sim = Simulator(mesh, target_sdf, fabric, sim_settings)
     exact_tolerance = settings.exact_tolerance or sim_settings.tolerance
     # An unconverged GPU adjoint solve at a state within 10x the exact tolerance falls

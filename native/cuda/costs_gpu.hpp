@@ -1,0 +1,33 @@
+// The fitting costs of Section 6 (distance, smoothness, stretching, positional) and
+// their gradients on the GPU, from the same host-device element functions as the
+// CPU's opt::CostSet (opt/costs/*.hpp) and the same slot gather. The constant data
+// (edges, hinges, base ratios and curvatures, the target field, the transferred
+// garment) is copied from a CostSet once; strengths are read from it at each call,
+// and a zero strength skips its term. Host-only interface: no CUDA types.
+#pragma once
+#include <array>
+#include <memory>
+
+#include "opt/cost_set.hpp"
+
+namespace seamfit::cuda {
+
+class CostSetGpu {
+ public:
+  // `cs` must outlive this object; call again after its set_distance / set_positional.
+  explicit CostSetGpu(opt::CostSet& cs);
+  ~CostSetGpu();
+  CostSetGpu(const CostSetGpu&) = delete;
+  CostSetGpu& operator=(const CostSetGpu&) = delete;
+
+  // As opt::CostSet::evaluate: total value, per-term values, gradients (n, 3), (n, 2).
+  double evaluate(const double* x, const double* p, double* grad_x, double* grad_p,
+                  std::array<double, opt::kNumCostTerms>* terms);
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace seamfit::cuda

@@ -1,7 +1,7 @@
 """`seamfit grade --device`: the grading loop's simulations (base drape, inexact
 steps, exact checkpoints) and its adjoint solve on each device, "cpu" always and
-"cuda" where a GPU is present; the costs and the pattern update run on the CPU in both
-(docs/gpu.md)."""
+"cuda" where a GPU is present (there with df/dp and the costs); the regularizers and the
+pattern update run on the CPU in both (docs/gpu.md)."""
 import json
 from pathlib import Path
 
@@ -104,9 +104,9 @@ def test_gpu_grading_matches_the_cpu_as_closely_as_two_cpu_solvers():
     CPU: its pattern within the spread plus 0.5 mm, its objective within twice the
     spread's objective difference plus 1 %.
     Measured on an H100 (docs/gpu.md, "Grading on the GPU"), with the GPU running the
-    simulations, the adjoint (MINRES) and (df/dp)^T lam: objectives 4.0272 (CPU), 3.8114
-    (CPU, lagged blocks), 3.9452 (GPU); patterns 2.49 mm (CPU, lagged) and 1.72 mm (GPU)
-    from the CPU's. The spread depends on the host's CPU too (docs/gpu.md)."""
+    simulations, the adjoint (MINRES), (df/dp)^T lam and the costs: objectives 4.0272 (CPU),
+    3.8114 (CPU, lagged blocks), 4.0704 (GPU); patterns 2.49 mm (CPU, lagged) and 1.94 mm
+    (GPU) from the CPU's. The spread depends on the host's CPU too (docs/gpu.md)."""
     cpu, cpu_lagged, gpu = _grade_api("cpu"), _grade_api("cpu", precond_refresh=4), _grade_api("cuda")
     spread = _apart_mm(cpu, cpu_lagged)
     apart = _apart_mm(cpu, gpu)

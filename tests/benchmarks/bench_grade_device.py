@@ -62,6 +62,7 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
             "objective_initial": r["objective_initial"], "objective_final": r["objective_final"],
             "objective_reduction": r["objective_reduction"], "converged": r["converged"],
             "message": r["message"], "drape": r["drape"], "adjoint": r.get("adjoint"),
+            "gpu_parts": "sim, adjoint, df/dp, costs" if r["device"] == "cuda" else None,
             "uv_cm": res.uv_cm.tolist()}
 
 
@@ -119,7 +120,7 @@ def cmd_report(args) -> int:
              "factorizations and solves, on the GPU MINRES (with its block setup); MINRES iterations per "
              "solve, and how many solves stopped at the iteration budget at an inexact state (kept) or "
              "fell back to the CPU at an equilibrium state.", "",
-             "| triangles | device | SDF mm | adjoint forcing | base drape s | loop s | per outer iteration s "
+             "| triangles | device (on the GPU) | SDF mm | adjoint forcing | base drape s | loop s | per outer iteration s "
              "| simulation s | gradient s | adjoint s | MINRES iterations per solve (kept at budget / fallbacks) "
              "| objective s | outer iterations accepted / done | objective reduction | pattern difference mm |",
              "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
@@ -131,7 +132,8 @@ def cmd_report(args) -> int:
                   f"{adj.get('gpu_fallbacks', 0)})" if "minres_iterations" in adj else "-")
         forcing = adj.get("inexact_forcing", r.get("adjoint_forcing", 0.0)) if r["device"] == "cuda" else None
         lines.append(
-            f"| {r['triangles']:,} | {r['device']} | {r.get('sdf_spacing_mm', 2.5):g} | "
+            f"| {r['triangles']:,} | {r['device']}{' (' + r['gpu_parts'] + ')' if r.get('gpu_parts') else ''} | "
+            f"{r.get('sdf_spacing_mm', 2.5):g} | "
             f"{'-' if forcing is None else format(forcing, 'g')} | "
             f"{'cached' if bd.get('cached') else format(bd['seconds'], '.1f')} | "
             f"{r['seconds_loop']:.1f} | {r['seconds_per_iteration']:.3f} | {sp['simulation']:.1f} | "

@@ -160,8 +160,8 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     device: EnumProperty(name="Device", default="AUTO", items=[
         ("AUTO", "Auto", "The GPU for large garments when one is present, otherwise the CPU"),
         ("CPU", "CPU", "Run on the processor"),
-        ("CUDA", "CUDA", "Simulate and solve the adjoint on the NVIDIA GPU (stops with the reason if none can "
-                 "be used)"),
+        ("CUDA", "CUDA", "Simulate, solve the adjoint and evaluate the costs on the NVIDIA GPU (stops with the "
+                 "reason if none can be used)"),
     ])
     show_overlay: BoolProperty(name="Pattern overlay", default=True,
                                description="Draw corners and stitch lengths in the viewport")

@@ -21,6 +21,7 @@
 
 #include "adjoint_gpu.hpp"
 #include "dev_buffer.cuh"
+#include "sim/solve_messages.hpp"
 #include "sim/minres.hpp"
 #include "sim_iteration.cuh"
 
@@ -302,12 +303,6 @@ __global__ void __launch_bounds__(kRedThreads) k_residual_sum(Vecs a, int nb) {
   }
 }
 
-std::string fmt(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.3g", v);
-  return buf;
-}
-
 }  // namespace
 
 struct AdjointGpu::Impl {
@@ -512,15 +507,12 @@ AdjointReport AdjointGpu::solve(const double* g, double* lam, const AdjointSetti
   r.converged = fin.status == sim::kMinresConverged;
   r.status = sim::minres_status_name(fin.status);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const std::string its = std::to_string(fin.it);
   if (fin.status == sim::kMinresConverged)
-    r.message = "converged: relative residual " + fmt(r.estimate) + " <= " + fmt(s.tolerance) + " after " + its +
-                " MINRES iterations";
+    r.message = sim::msg_converged(r.estimate, s.tolerance, fin.it, "MINRES iterations");
   else if (fin.status == sim::kMinresBudget)
-    r.message = "not converged: relative residual " + fmt(r.estimate) + " > " + fmt(s.tolerance) + " after " + its +
-                " MINRES iterations (iteration budget)";
+    r.message = sim::msg_iteration_budget(r.estimate, s.tolerance, fin.it, "MINRES iterations");
   else
-    r.message = "MINRES broke down after " + its +
+    r.message = "MINRES broke down after " + std::to_string(fin.it) +
                 " iterations (the preconditioner is not positive definite or the values are not finite)";
   return r;
 }

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "dev_buffer.cuh"
+#include "sim/solve_messages.hpp"
 #include "sim_gpu.hpp"
 #include "sim_iteration.cuh"
 
@@ -229,12 +230,6 @@ __global__ void __launch_bounds__(kCtrlThreads) k_sums(const double* pe, int nb,
   reduce_parts(pe, nb, nullptr, 0, sums);
   if (threadIdx.x == 0)
     for (int q = 0; q <= kTerms; ++q) out[q] = sums[q];
-}
-
-std::string fmt(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.3g", v);
-  return buf;
 }
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
@@ -643,22 +638,18 @@ sim::SolveReport SimGpu::solve(double* x, const sim::SolveSettings& st, const si
   rep.final_rho = c.rho;
   rep.final_alpha = c.alpha;
   rep.seconds = seconds_since(t0);
-  const std::string its = std::to_string(c.it);
   if (c.status == kConverged) {
     rep.converged = true;
-    rep.message = "converged: relative residual " + fmt(c.res) + " <= " + fmt(st.tolerance) + " after " + its +
-                  " iterations";
+    rep.message = sim::msg_converged(c.res, st.tolerance, c.it, "iterations");
   } else if (c.status == kNonFinite) {
-    rep.message = "stopped: non-finite force at iteration " + its + "; returned the last good state";
+    rep.message = sim::msg_non_finite(c.it);
   } else if (c.status == kBudget) {
-    rep.message = "not converged: relative residual " + fmt(c.res) + " > " + fmt(st.tolerance) + " after " + its +
-                  " iterations (iteration budget)";
+    rep.message = sim::msg_iteration_budget(c.res, st.tolerance, c.it, "iterations");
   } else if (timed_out) {
-    rep.message = "not converged: relative residual " + fmt(c.res) + " > " + fmt(st.tolerance) + " after " +
-                  fmt(seconds_since(t0)) + " s (time budget)";
+    rep.message = sim::msg_time_budget(c.res, st.tolerance, seconds_since(t0));
   } else {
     rep.cancelled = true;
-    rep.message = "cancelled at iteration " + its + " (relative residual " + fmt(c.res) + ")";
+    rep.message = sim::msg_cancelled(c.res, c.it, "iteration");
   }
   return rep;
 }

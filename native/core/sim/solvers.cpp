@@ -28,6 +28,7 @@
 
 #include "sim/jacobi_step.hpp"
 #include "sim/simulator.hpp"
+#include "sim/solve_messages.hpp"
 
 namespace seamfit::sim {
 
@@ -49,10 +50,19 @@ inline double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-std::string fmt(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.3g", v);
-  return buf;
+// The iteration and time budgets both solvers check each iteration: true (and
+// the report's message) when one is spent. `what` names the iterations.
+bool budget_spent(SolveReport& rep, const SolveSettings& st, int it, double res, Clock::time_point t0,
+                  const char* what) {
+  if (it >= st.max_iterations) {
+    rep.message = msg_iteration_budget(res, st.tolerance, it, what);
+    return true;
+  }
+  if (st.max_seconds > 0 && seconds_since(t0) > st.max_seconds) {
+    rep.message = msg_time_budget(res, st.tolerance, seconds_since(t0));
+    return true;
+  }
+  return false;
 }
 
 // Relative slack for energy comparisons: round-off of a sum of terms.
@@ -121,8 +131,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
     }
     if (res <= st.tolerance) {
       rep.converged = true;
-      rep.message = "converged: relative residual " + fmt(res) + " <= " + fmt(st.tolerance) + " after " +
-                    std::to_string(it) + " iterations";
+      rep.message = msg_converged(res, st.tolerance, it, "iterations");
       break;
     }
     if (!std::isfinite(res)) {
@@ -130,23 +139,14 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
       xc = ck;
       E = eval(xc, false);
       rep.residual = residual(f.data());
-      rep.message = "stopped: non-finite force at iteration " + std::to_string(it) + "; returned the last good state";
+      rep.message = msg_non_finite(it);
       break;
     }
-    if (it >= st.max_iterations) {
-      rep.message = "not converged: relative residual " + fmt(res) + " > " + fmt(st.tolerance) + " after " +
-                    std::to_string(it) + " iterations (iteration budget)";
-      break;
-    }
-    if (st.max_seconds > 0 && seconds_since(t0) > st.max_seconds) {
-      rep.message = "not converged: relative residual " + fmt(res) + " > " + fmt(st.tolerance) + " after " +
-                    fmt(seconds_since(t0)) + " s (time budget)";
-      break;
-    }
+    if (budget_spent(rep, st, it, res, t0, "iterations")) break;
     if ((cancel && cancel->load()) ||
         (progress && st.progress_every > 0 && it % st.progress_every == 0 && !progress(it, res))) {
       rep.cancelled = true;
-      rep.message = "cancelled at iteration " + std::to_string(it) + " (relative residual " + fmt(res) + ")";
+      rep.message = msg_cancelled(res, it, "iteration");
       break;
     }
 
@@ -339,23 +339,13 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
     }
     if (res <= st.tolerance) {
       rep.converged = true;
-      rep.message = "converged: relative residual " + fmt(res) + " <= " + fmt(st.tolerance) + " after " +
-                    std::to_string(it) + " Newton iterations";
+      rep.message = msg_converged(res, st.tolerance, it, "Newton iterations");
       break;
     }
-    if (it >= st.max_iterations) {
-      rep.message = "not converged: relative residual " + fmt(res) + " > " + fmt(st.tolerance) + " after " +
-                    std::to_string(it) + " Newton iterations (iteration budget)";
-      break;
-    }
-    if (st.max_seconds > 0 && seconds_since(t0) > st.max_seconds) {
-      rep.message = "not converged: relative residual " + fmt(res) + " > " + fmt(st.tolerance) + " after " +
-                    fmt(seconds_since(t0)) + " s (time budget)";
-      break;
-    }
+    if (budget_spent(rep, st, it, res, t0, "Newton iterations")) break;
     if ((cancel && cancel->load()) || (progress && !progress(it, res))) {
       rep.cancelled = true;
-      rep.message = "cancelled at Newton iteration " + std::to_string(it) + " (relative residual " + fmt(res) + ")";
+      rep.message = msg_cancelled(res, it, "Newton iteration");
       break;
     }
     if (step) {

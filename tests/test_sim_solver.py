@@ -54,6 +54,18 @@ def test_both_solvers_reach_the_same_equilibrium():
     assert np.abs(a.x - b.x).max() < 1e-4  # 0.1 mm
 
 
+def test_iterate_is_a_fixed_number_of_chebyshev_iterations():
+    # The search's inexact steps: the solve's iterations without the DrapeResult summary,
+    # and the residual it reports is the one of the state it returns.
+    mesh, sim = hanging_sheet(method="chebyshev")
+    x, rep = sim.iterate(mesh.x0, 40)
+    ref = sim.solve(mesh.x0, tolerance=1e-12, max_iterations=40)
+    assert rep["iterations"] == 40 and not rep["converged"]
+    np.testing.assert_array_equal(x, ref.x)
+    assert rep["residual"] == pytest.approx(sim.residual(x), rel=1e-9)
+    np.testing.assert_array_equal(mesh.x0, sim.iterate(mesh.x0, 0)[0])
+
+
 def test_chebyshev_energy_checkpoints_never_rise():
     mesh, sim = hanging_sheet(tolerance=1e-5, max_iterations=3000, check_every=8, history_every=0)
     x = mesh.x0

@@ -87,6 +87,7 @@ class AdjointSolver:
         self._ldlt = None
         self._gpu_adjoint = None
         self._x = None                 # the state set on the GPU
+        self._x_residual = None        # its relative residual, when the caller knew it
         self._lam = None               # the last lam: the next GPU solve's start
 
     def stats(self) -> dict:
@@ -100,7 +101,10 @@ class AdjointSolver:
                      relaxed=self.relaxed)
         return d
 
-    def factorize(self, x) -> None:
+    def factorize(self, x, residual: float | None = None) -> None:
+        """Prepare solves at the garment state x; `residual`: x's relative residual
+        if known (the GPU solve's tolerance and fallback rule use it)."""
+        self._x_residual = residual
         t0 = time.perf_counter()
         try:
             if self.device == "cuda":
@@ -128,7 +132,9 @@ class AdjointSolver:
         gpu = self.sim.cuda()
         g = np.ascontiguousarray(g, dtype=np.float64).reshape(-1, 3)
         lam0 = self._lam if self._lam is not None and self._lam.shape == g.shape else None
-        residual = None if self.equilibrium_tolerance is None else self.sim.cuda().residual(self._x)
+        residual = None
+        if self.equilibrium_tolerance is not None:
+            residual = self._x_residual if self._x_residual is not None else gpu.residual(self._x)
         inexact = residual is not None and residual > self.equilibrium_tolerance
         tol = self.gpu_tolerance
         if inexact and self.inexact_forcing > 0:
@@ -181,10 +187,12 @@ class AdjointSolver:
             raise SolveError("the adjoint solve produced non-finite values")
         return lam
 
-    def pattern_gradient(self, x, grad_x, grad_p, *, refactor: bool = True) -> np.ndarray:
-        """Total dF/dp (N, 2) from the partials dF/dx (N, 3) and dF/dp (N, 2)."""
+    def pattern_gradient(self, x, grad_x, grad_p, *, refactor: bool = True,
+                         residual: float | None = None) -> np.ndarray:
+        """Total dF/dp (N, 2) from the partials dF/dx (N, 3) and dF/dp (N, 2);
+        `residual`: x's relative residual, if known."""
         if refactor or self._solve is None:
-            self.factorize(x)
+            self.factorize(x, residual)
         lam = self.solve(grad_x)
         # On the GPU the product runs there too (the rest state is read at each call).
         dfdp = self.sim.cuda().dfdp_T if self.device == "cuda" else self.sim.dfdp_T

@@ -31,12 +31,14 @@ class Objective:
         return float(c + r + rs), {**{k: float(v) for k, v in terms.items()},
                                    **{k: float(v) for k, v in rterms.items()}, "seam": float(rs)}
 
-    def gradient(self, x, theta) -> tuple[float, np.ndarray]:
+    def gradient(self, x, theta, residual: float | None = None) -> tuple[float, np.ndarray]:
+        """f and its gradient in theta; `residual`: x's relative residual when its
+        solve reported it (else the adjoint evaluates it where it needs it)."""
         p = self.param.pattern(theta)
         c, _, gx, gp = self.costs.evaluate(x, p)
         r, _, gr = self.regs.evaluate(theta)
         rs, gs = self._seam(theta)
-        gp_total = self.adjoint.pattern_gradient(x, gx, gp)
+        gp_total = self.adjoint.pattern_gradient(x, gx, gp, residual=residual)
         g = self.param.adjoint(gp_total) + gr
         if gs is not None:
             g = g + gs

@@ -359,6 +359,30 @@ def test_changes_to_the_model_reach_the_device(device):
     assert_same_force_and_energy(sim, ev, x)
 
 
+@pytest.mark.parametrize("device", DEVICES)
+def test_rest_state_follows_a_new_pattern(device):
+    """A new pattern's rest state, computed when first needed on the CPU and by the
+    device itself on the GPU: scaling the pattern by s scales rest lengths by s and
+    masses (pattern areas) by s^2, and the device's equals the CPU's."""
+    mesh, sim = tube_sim(sticking=False)
+    p0 = np.array(sim.p)
+    L0, m0, w0 = sim.core.rest_lengths.copy(), sim.masses.copy(), sim.core.weight_norm
+    ev = evaluator(sim, device)
+    for s in (1.05, 0.9):
+        sim.set_pattern(s * p0)
+        if device == "cpu":
+            L, m, w = sim.core.rest_lengths, sim.masses, sim.core.weight_norm
+        else:
+            r = ev.rest_state()
+            L, m, w = r["rest_lengths"], r["masses"], r["weight_norm"]
+            np.testing.assert_allclose(L, sim.core.rest_lengths, rtol=1e-15, atol=0)
+            np.testing.assert_allclose(m, sim.masses, rtol=1e-14, atol=0)
+            assert w == pytest.approx(sim.core.weight_norm, rel=1e-14)
+        np.testing.assert_allclose(L, s * L0, rtol=1e-14)
+        np.testing.assert_allclose(m, s * s * m0, rtol=1e-13)
+        assert w == pytest.approx(s * s * w0, rel=1e-13)
+
+
 def test_cuda_request_without_a_gpu_fails_clearly(monkeypatch):
     """--device cuda on a machine without a GPU names the reason."""
     mesh, sim = tube_sim(sticking=False)

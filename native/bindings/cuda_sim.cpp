@@ -106,7 +106,27 @@ void bind_cuda_sim(py::module_& m) {
            py::arg("use_graph") = true, py::arg("float_rest") = false, py::arg("fuse_control") = false,
            py::keep_alive<1, 2>())  // the CPU simulator must outlive its GPU copy
       .def("sync", &SimGpu::sync,
-           "Re-read parameters, rest state, sticking and (if it changed) the body from the CPU simulator.")
+           "Bring the device up to the CPU simulator's model: what changed moves; a new pattern's rest state "
+           "is computed on the device.")
+      .def_property_readonly("weight_norm", &SimGpu::weight_norm,
+                             "|m g0| of the synced rest state (the residual scale), computed on the device")
+      .def("rest_state",
+           [](SimGpu& g) {
+             // For tests: the device's float64 rest state, copied back.
+             g.sync();
+             const seamfit::cuda::DeviceRest d = g.device_rest();
+             auto fetch = [](const double* src, size_t count) {
+               py::array_t<double> a{py::ssize_t(count)};
+               if (count) seamfit::cuda::copy_to_host(a.mutable_data(), src, count * sizeof(double));
+               return a;
+             };
+             py::dict r;
+             r["rest_lengths"] = fetch(d.rest_L, size_t(d.n_springs));
+             r["masses"] = fetch(d.mass, size_t(d.n));
+             r["weight_norm"] = g.weight_norm();
+             return r;
+           },
+           "The device's rest lengths, masses and weight norm (after a sync), for comparison with the CPU's.")
       .def_property_readonly("device_name", &SimGpu::device_name)
       .def_property_readonly("device_bytes", &SimGpu::device_bytes)
       .def_property_readonly("float_rest", [](const SimGpu& g) { return g.options().float_rest; })
@@ -250,6 +270,7 @@ void bind_cuda_sim(py::module_& m) {
            py::keep_alive<1, 2>())  // the GPU simulator must outlive it
       .def("apply",
            [](DfdpGpu& d, SimGpu& g, DArr x, DArr lam) {
+             g.sync();  // the pattern as the CPU simulator has it now (nothing moves when unchanged)
              require_x(g, x);
              require_x(g, lam);
              require_outside(g, x.data());

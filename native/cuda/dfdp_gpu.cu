@@ -87,40 +87,22 @@ int blocks(int n) { return (n + kBlock - 1) / kBlock; }
 struct DfdpGpu::Impl {
   SimGpu* gpu = nullptr;
   cudaStream_t stream = nullptr;
-  DevBuf spring_v, vs_ptr, vs_idx, tris, vt_ptr, vt_idx, hinge_v, vh_ptr, vh_idx;  // topology, once
-  DevBuf p, rest_L, shirring, mass, L_floored, x, lam, sp, hp, tp, wv, out;       // per call
+  DevBuf x, lam, sp, hp, tp, wv, out;  // per call
 };
 
 DfdpGpu::DfdpGpu(SimGpu& gpu) : impl_(new Impl) {
-  Impl& I = *impl_;
-  I.gpu = &gpu;
-  I.stream = static_cast<cudaStream_t>(gpu.stream_handle());
-  const sim::SimArrays a = gpu.simulator().arrays();
-  upload(I.spring_v, a.spring_v, 2 * size_t(a.n_springs), I.stream);
-  upload(I.vs_ptr, a.vs_ptr, size_t(a.n) + 1, I.stream);
-  upload(I.vs_idx, a.vs_idx, size_t(a.vs_ptr[a.n]), I.stream);
-  upload(I.tris, a.tris, 3 * size_t(a.n_tris), I.stream);
-  upload(I.vt_ptr, a.vt_ptr, size_t(a.n) + 1, I.stream);
-  upload(I.vt_idx, a.vt_idx, size_t(a.vt_ptr[a.n]), I.stream);
-  upload(I.hinge_v, a.hinge_v, 4 * size_t(a.n_hinges), I.stream);
-  upload(I.vh_ptr, a.vh_ptr, size_t(a.n) + 1, I.stream);
-  upload(I.vh_idx, a.vh_idx, size_t(a.vh_ptr[a.n]), I.stream);
-  SF_CUDA(cudaStreamSynchronize(I.stream));
+  impl_->gpu = &gpu;
+  impl_->stream = static_cast<cudaStream_t>(gpu.stream_handle());
 }
 
 DfdpGpu::~DfdpGpu() = default;
 
 void DfdpGpu::apply(const double* x, const double* lam, double* out) {
   Impl& I = *impl_;
-  const sim::Simulator& S = I.gpu->simulator();
-  const sim::SimArrays h = S.arrays();
-  const sim::SimParams& P = S.params();
-  const int n = h.n, E = h.n_springs, T = h.n_tris, H = h.n_hinges;
-  upload(I.p, h.p, 2 * size_t(n), I.stream);
-  upload(I.rest_L, h.rest_L, size_t(E), I.stream);
-  upload(I.shirring, h.shirring, size_t(E), I.stream);
-  upload(I.mass, h.mass, size_t(n), I.stream);
-  upload(I.L_floored, h.L_floored, size_t(E), I.stream);
+  // The pattern, rest state and topology as the GPU simulator holds them (its last sync()).
+  const DeviceRest d = I.gpu->device_rest();
+  const sim::SimParams& P = I.gpu->simulator().params();
+  const int n = d.n, E = d.n_springs, T = d.n_tris, H = d.n_hinges;
   upload(I.x, x, 3 * size_t(n), I.stream);
   upload(I.lam, lam, 3 * size_t(n), I.stream);
   I.sp.reserve(2 * size_t(E) * sizeof(double));
@@ -133,22 +115,22 @@ void DfdpGpu::apply(const double* x, const double* lam, double* out) {
   a.n = n;
   a.E = P.stretch_Y > 0 ? E : 0;
   a.H = P.bend_kb > 0 ? H : 0;
-  a.p = I.p.as<double>();
+  a.p = d.p;
   a.x = I.x.as<double>();
   a.lam = I.lam.as<double>();
-  a.rest_L = I.rest_L.as<double>();
-  a.shirring = I.shirring.as<double>();
-  a.mass = I.mass.as<double>();
-  a.spring_v = I.spring_v.as<int32_t>();
-  a.vs_ptr = I.vs_ptr.as<int32_t>();
-  a.vs_idx = I.vs_idx.as<int32_t>();
-  a.tris = I.tris.as<int32_t>();
-  a.vt_ptr = I.vt_ptr.as<int32_t>();
-  a.vt_idx = I.vt_idx.as<int32_t>();
-  a.hinge_v = I.hinge_v.as<int32_t>();
-  a.vh_ptr = I.vh_ptr.as<int32_t>();
-  a.vh_idx = I.vh_idx.as<int32_t>();
-  a.L_floored = I.L_floored.as<uint8_t>();
+  a.rest_L = d.rest_L;
+  a.shirring = d.shirring;
+  a.mass = d.mass;
+  a.spring_v = d.spring_v;
+  a.vs_ptr = d.vs_ptr;
+  a.vs_idx = d.vs_idx;
+  a.tris = d.tris;
+  a.vt_ptr = d.vt_ptr;
+  a.vt_idx = d.vt_idx;
+  a.hinge_v = d.hinge_v;
+  a.vh_ptr = d.vh_ptr;
+  a.vh_idx = d.vh_idx;
+  a.L_floored = d.L_floored;
   a.sp = I.sp.as<double>();
   a.hp = I.hp.as<double>();
   a.tp = I.tp.as<double>();
@@ -157,14 +139,14 @@ void DfdpGpu::apply(const double* x, const double* lam, double* out) {
   a.Y = P.stretch_Y;
   a.kb = P.bend_kb;
   a.gv = P.gravity;
-  a.bar = h.has_sdf && P.mu > 0;
+  a.bar = I.gpu->simulator().has_sdf() && P.mu > 0;
   // As the CPU: the mass terms only where there is gravity or a barrier.
   const bool mass_terms = P.density > 0 && (norm2(P.gravity) > 0 || a.bar);
   a.rho3 = mass_terms ? P.density / 3.0 : 0.0;
   a.T = mass_terms ? T : 0;
   a.sb = P.mu * P.barrier_length * sim::kG0;
   a.dhat = P.barrier_distance;
-  a.m_floor = h.m_floor;
+  a.m_floor = I.gpu->simulator().arrays().m_floor;
   a.smooth = P.barrier_smooth;
   if (a.bar) {
     // The body field in device memory, as the GPU simulator holds it.

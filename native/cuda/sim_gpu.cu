@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "dev_buffer.cuh"
+#include "sim/rest_state.hpp"
 #include "sim/solve_messages.hpp"
 #include "sim_gpu.hpp"
 #include "sim_iteration.cuh"
@@ -36,6 +37,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 constexpr int kCtrlThreads = 256;
+constexpr int kRestBlock = 128;
 
 // ------------------------------------------------------------------ kernels
 
@@ -232,6 +234,60 @@ __global__ void __launch_bounds__(kCtrlThreads) k_sums(const double* pe, int nb,
     for (int q = 0; q <= kTerms; ++q) out[q] = sums[q];
 }
 
+// The rest state from the pattern on the device (sim/rest_state.hpp).
+struct RestArgs {
+  int n = 0, E = 0, T = 0, H = 0;
+  const double* p = nullptr;
+  const int32_t *spring_v = nullptr, *tris = nullptr, *vt_ptr = nullptr, *vt_idx = nullptr;
+  const int32_t *hinge_v = nullptr, *vh_ptr = nullptr, *vh_idx = nullptr, *nbr_ptr = nullptr, *nbr_idx = nullptr;
+  double *rest_L = nullptr, *tri_area = nullptr, *hinge_K = nullptr, *hinge_w = nullptr, *Q = nullptr;
+  double *mass = nullptr, *barrier_c = nullptr, *part = nullptr;
+  uint8_t* floored = nullptr;
+  double L_floor = 0, m_floor = 0, density = 0, bscale = 0;
+};
+
+// Springs, triangles and hinges: one element of each per thread.
+__global__ void k_rest_elements(RestArgs a) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k < a.E) a.rest_L[k] = sim::spring_rest_length(a.p, a.spring_v[2 * k], a.spring_v[2 * k + 1], a.L_floor, a.floored + k);
+  if (k < a.T) a.tri_area[k] = sim::triangle_rest_area(a.p, a.tris + 3 * k);
+  if (k < a.H) sim::hinge_rest(a.p, a.hinge_v + 4 * k, a.hinge_K + 4 * k, a.hinge_w + k);
+}
+
+// Per vertex: mass, barrier weight and Q's row; per block: sum of m^2.
+__global__ void k_rest_vertices(RestArgs a) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  double m2[1] = {0};
+  if (v < a.n) {
+    const double m = sim::vertex_mass(v, a.vt_ptr, a.vt_idx, a.tri_area, a.density);
+    a.mass[v] = m;
+    a.barrier_c[v] = sim::barrier_weight(m, a.m_floor, a.bscale);
+    sim::bending_q_row(v, a.vh_ptr, a.vh_idx, a.hinge_v, a.hinge_K, a.hinge_w, a.nbr_ptr, a.nbr_idx,
+                       a.Q + a.nbr_ptr[v]);
+    m2[0] = m * m;
+  }
+  block_sum<1>(m2, a.part + blockIdx.x);
+}
+
+// out[0] = sum of part[0..nb) in a fixed order (one block).
+__global__ void __launch_bounds__(kCtrlThreads) k_sum_parts(const double* part, int nb, double* out) {
+  __shared__ double sh[kCtrlThreads];
+  double a = 0;
+  for (int b = threadIdx.x; b < nb; b += blockDim.x) a += part[b];
+  sh[threadIdx.x] = a;
+  __syncthreads();
+  for (int w = blockDim.x / 2; w > 0; w >>= 1) {
+    if (threadIdx.x < w) sh[threadIdx.x] += sh[threadIdx.x + w];
+    __syncthreads();
+  }
+  if (threadIdx.x == 0) out[0] = sh[0];
+}
+
+__global__ void k_to_float(const double* in, float* out, size_t count) {
+  const size_t i = size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < count) out[i] = float(in[i]);  // rounds to nearest, as the host conversion did
+}
+
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 }  // namespace
@@ -246,8 +302,16 @@ struct SimGpu::Impl {
   cudaStream_t stream = nullptr;
   // Topology (fixed) and rest state (sync()).
   DevBuf spring_v, vs_ptr, vs_idx, vw_ptr, vw_idx, nbr_ptr, nbr_idx, self_slot;
-  DevBuf rest_L, shirring, Q, mass, barrier_c, stick_k, stick_t, sdf_values;
-  uint64_t sdf_revision = ~uint64_t(0);
+  DevBuf tris, vt_ptr, vt_idx, hinge_v, vh_ptr, vh_idx;
+  int n_tris = 0, n_hinges = 0;
+  double L_floor = 0, m_floor = 0;
+  // The pattern and its rest state in float64 (computed here from p); with
+  // float_rest the model reads the float32 copies below.
+  DevBuf p, rest_L64, shirring64, Q64, mass64, barrier_c64, L_floored, tri_area, hinge_K, hinge_w, rest_part;
+  DevBuf rest_L, shirring, Q, mass, barrier_c;  // float32 copies (float_rest)
+  DevBuf stick_k, stick_t, sdf_values;
+  uint64_t sdf_revision = ~uint64_t(0), rest_revision = ~uint64_t(0), shirring_revision = ~uint64_t(0),
+           sticking_revision = ~uint64_t(0);
   DevModel<double> m64;
   DevModel<float> m32;
   double weight_norm = 1;
@@ -377,15 +441,10 @@ struct SimGpu::Impl {
 
 namespace {
 
-template <class R>
-void upload_rest(DevBuf& b, const double* h, size_t count, cudaStream_t s, std::vector<float>& tmp) {
-  if constexpr (std::is_same_v<R, double>) {
-    upload(b, h, count, s);
-  } else {
-    tmp.assign(h, h + count);  // rounds to nearest
-    upload(b, tmp.data(), count, s);
-    SF_CUDA(cudaStreamSynchronize(s));  // tmp is reused
-  }
+void to_float(DevBuf& out, const DevBuf& in, size_t count, cudaStream_t s) {
+  out.reserve(count * sizeof(float));
+  if (count) k_to_float<<<unsigned((count + 255) / 256), 256, 0, s>>>(in.as<double>(), out.as<float>(), count);
+  SF_CUDA(cudaGetLastError());
 }
 
 template <class R>
@@ -399,11 +458,12 @@ void fill_model(DevModel<R>& m, SimGpu::Impl& I) {
   m.nbr_ptr = I.nbr_ptr.as<int32_t>();
   m.nbr_idx = I.nbr_idx.as<int32_t>();
   m.self_slot = I.self_slot.as<int32_t>();
-  m.rest_L = I.rest_L.as<R>();
-  m.shirring = I.shirring.as<R>();
-  m.Q = I.Q.as<R>();
-  m.mass = I.mass.as<R>();
-  m.barrier_c = I.barrier_c.as<R>();
+  const bool f64 = std::is_same_v<R, double>;
+  m.rest_L = (f64 ? I.rest_L64 : I.rest_L).as<R>();
+  m.shirring = (f64 ? I.shirring64 : I.shirring).as<R>();
+  m.Q = (f64 ? I.Q64 : I.Q).as<R>();
+  m.mass = (f64 ? I.mass64 : I.mass).as<R>();
+  m.barrier_c = (f64 ? I.barrier_c64 : I.barrier_c).as<R>();
   m.stick_k = I.stick_k.as<double>();
   m.stick_t = I.stick_t.as<double>();
   const sim::SimParams& p = I.params;
@@ -455,6 +515,16 @@ SimGpu::SimGpu(const sim::Simulator& s, const GpuOptions& opt) : opt_(opt), impl
   upload(I.nbr_ptr, a.nbr_ptr, size_t(a.n) + 1, I.stream);
   upload(I.nbr_idx, a.nbr_idx, size_t(I.nnz), I.stream);
   upload(I.self_slot, a.self_slot, size_t(a.n), I.stream);
+  I.n_tris = a.n_tris;
+  I.n_hinges = a.n_hinges;
+  I.L_floor = a.L_floor;
+  I.m_floor = a.m_floor;
+  upload(I.tris, a.tris, 3 * size_t(a.n_tris), I.stream);
+  upload(I.vt_ptr, a.vt_ptr, size_t(a.n) + 1, I.stream);
+  upload(I.vt_idx, a.vt_idx, size_t(a.vt_ptr[a.n]), I.stream);
+  upload(I.hinge_v, a.hinge_v, 4 * size_t(a.n_hinges), I.stream);
+  upload(I.vh_ptr, a.vh_ptr, size_t(a.n) + 1, I.stream);
+  upload(I.vh_idx, a.vh_idx, size_t(a.vh_ptr[a.n]), I.stream);
   const size_t n3 = 3 * size_t(a.n);
   for (auto& b : I.xbuf) b.reserve(n3 * sizeof(double));
   I.ck.reserve(n3 * sizeof(double));
@@ -475,38 +545,138 @@ SimGpu::~SimGpu() = default;
 
 void SimGpu::sync() {
   Impl& I = *impl_;
-  const sim::SimArrays a = I.sim->arrays();
+  const sim::SimArrays a = I.sim->arrays();  // does not recompute the CPU's rest state
   if (a.n != I.n || a.n_springs != I.n_springs) throw CudaError("the simulator's topology changed under its GPU copy");
   I.params = I.sim->params();
-  I.weight_norm = I.sim->weight_norm();
-  std::vector<float> tmp;
-  auto rest = [&](auto tag) {
-    using R = decltype(tag);
-    upload_rest<R>(I.rest_L, a.rest_L, size_t(a.n_springs), I.stream, tmp);
-    upload_rest<R>(I.shirring, a.shirring, size_t(a.n_springs), I.stream, tmp);
-    upload_rest<R>(I.Q, a.Q, size_t(I.nnz), I.stream, tmp);
-    upload_rest<R>(I.mass, a.mass, size_t(a.n), I.stream, tmp);
-    upload_rest<R>(I.barrier_c, a.barrier_c, size_t(a.n), I.stream, tmp);
-  };
-  if (opt_.float_rest) rest(float());
-  else rest(double());
-  upload(I.stick_k, a.stick_k, size_t(a.n), I.stream);
-  upload(I.stick_t, a.stick_t, 3 * size_t(a.n), I.stream);
+  const size_t E = size_t(a.n_springs);
+  if (a.shirring_revision != I.shirring_revision) {
+    upload(I.shirring64, a.shirring, E, I.stream);
+    if (opt_.float_rest) to_float(I.shirring, I.shirring64, E, I.stream);
+    I.shirring_revision = a.shirring_revision;
+  }
+  if (a.sticking_revision != I.sticking_revision) {
+    upload(I.stick_k, a.stick_k, size_t(a.n), I.stream);
+    upload(I.stick_t, a.stick_t, 3 * size_t(a.n), I.stream);
+    I.sticking_revision = a.sticking_revision;
+  }
   if (a.sdf_revision != I.sdf_revision) {
     if (a.has_sdf) upload(I.sdf_values, a.sdf.values, size_t(a.sdf.nx) * a.sdf.ny * a.sdf.nz, I.stream);
     else I.sdf_values.release();
     I.sdf_revision = a.sdf_revision;
   }
+  if (a.rest_revision != I.rest_revision) {
+    upload(I.p, a.p, 2 * size_t(a.n), I.stream);
+    update_rest_state();
+    I.rest_revision = a.rest_revision;
+  }
   I.bar = a.has_sdf && I.params.mu > 0;
   if (I.bar) I.S.reserve(size_t(a.n) * sizeof(SdfSample));
   SdfGridView g = a.sdf;
   g.values = a.has_sdf ? I.sdf_values.as<float>() : nullptr;
+  // The model is baked into the graph's kernel arguments; new values behind the
+  // same pointers (a new rest state) are not. Compared byte for byte (fill_model
+  // writes fields only, so padding compares equal).
+  unsigned char old64[sizeof(DevModel<double>)], old32[sizeof(DevModel<float>)];
+  std::memcpy(old64, &I.m64, sizeof old64);
+  std::memcpy(old32, &I.m32, sizeof old32);
   fill_model(I.m64, I);
   fill_model(I.m32, I);
   I.m64.stick = I.m32.stick = a.any_sticking;
   I.m64.sdf = I.m32.sdf = g;
   SF_CUDA(cudaStreamSynchronize(I.stream));  // the host arrays may change after this returns
-  I.graph_dirty = true;  // the model is baked into the graph's kernel arguments
+  if (std::memcmp(old64, &I.m64, sizeof old64) != 0 || std::memcmp(old32, &I.m32, sizeof old32) != 0)
+    I.graph_dirty = true;
+}
+
+void SimGpu::update_rest_state() {
+  Impl& I = *impl_;
+  const size_t n = size_t(I.n), E = size_t(I.n_springs), T = size_t(I.n_tris), H = size_t(I.n_hinges),
+               nnz = size_t(I.nnz);
+  I.rest_L64.reserve(E * sizeof(double));
+  I.L_floored.reserve(E);
+  I.tri_area.reserve(T * sizeof(double));
+  I.hinge_K.reserve(4 * H * sizeof(double));
+  I.hinge_w.reserve(H * sizeof(double));
+  I.Q64.reserve(nnz * sizeof(double));
+  I.mass64.reserve(n * sizeof(double));
+  I.barrier_c64.reserve(n * sizeof(double));
+  const int nbv = int((n + kRestBlock - 1) / kRestBlock);
+  I.rest_part.reserve(size_t(nbv + 1) * sizeof(double));
+  RestArgs r;
+  r.n = I.n;
+  r.E = I.n_springs;
+  r.T = I.n_tris;
+  r.H = I.n_hinges;
+  r.p = I.p.as<double>();
+  r.spring_v = I.spring_v.as<int32_t>();
+  r.tris = I.tris.as<int32_t>();
+  r.vt_ptr = I.vt_ptr.as<int32_t>();
+  r.vt_idx = I.vt_idx.as<int32_t>();
+  r.hinge_v = I.hinge_v.as<int32_t>();
+  r.vh_ptr = I.vh_ptr.as<int32_t>();
+  r.vh_idx = I.vh_idx.as<int32_t>();
+  r.nbr_ptr = I.nbr_ptr.as<int32_t>();
+  r.nbr_idx = I.nbr_idx.as<int32_t>();
+  r.rest_L = I.rest_L64.as<double>();
+  r.floored = I.L_floored.as<uint8_t>();
+  r.tri_area = I.tri_area.as<double>();
+  r.hinge_K = I.hinge_K.as<double>();
+  r.hinge_w = I.hinge_w.as<double>();
+  r.Q = I.Q64.as<double>();
+  r.mass = I.mass64.as<double>();
+  r.barrier_c = I.barrier_c64.as<double>();
+  r.part = I.rest_part.as<double>();
+  r.L_floor = I.L_floor;
+  r.m_floor = I.m_floor;
+  r.density = I.params.density;
+  r.bscale = I.params.mu * I.params.barrier_length * sim::kG0;
+  const size_t ne = std::max({E, T, H, size_t(1)});
+  k_rest_elements<<<unsigned((ne + kRestBlock - 1) / kRestBlock), kRestBlock, 0, I.stream>>>(r);
+  k_rest_vertices<<<nbv, kRestBlock, 0, I.stream>>>(r);
+  k_sum_parts<<<1, kCtrlThreads, 0, I.stream>>>(r.part, nbv, r.part + nbv);
+  SF_CUDA(cudaGetLastError());
+  if (opt_.float_rest) {
+    to_float(I.rest_L, I.rest_L64, E, I.stream);
+    to_float(I.Q, I.Q64, nnz, I.stream);
+    to_float(I.mass, I.mass64, n, I.stream);
+    to_float(I.barrier_c, I.barrier_c64, n, I.stream);
+  }
+  double m2 = 0;
+  SF_CUDA(cudaMemcpyAsync(&m2, r.part + nbv, sizeof(double), cudaMemcpyDeviceToHost, I.stream));
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+  // As Simulator::update_rest_state: massless cloth gets an absolute residual.
+  I.weight_norm = sim::kG0 * std::sqrt(m2);
+  if (!(I.weight_norm > 0)) I.weight_norm = 1.0;
+}
+
+double SimGpu::weight_norm() const { return impl_->weight_norm; }
+
+void copy_to_host(void* dst, const void* src, size_t bytes) {
+  SF_CUDA(cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToHost));
+}
+
+DeviceRest SimGpu::device_rest() const {
+  const Impl& I = *impl_;
+  DeviceRest d;
+  d.n = I.n;
+  d.n_springs = I.n_springs;
+  d.n_tris = I.n_tris;
+  d.n_hinges = I.n_hinges;
+  d.p = I.p.as<double>();
+  d.rest_L = I.rest_L64.as<double>();
+  d.shirring = I.shirring64.as<double>();
+  d.mass = I.mass64.as<double>();
+  d.L_floored = I.L_floored.as<uint8_t>();
+  d.spring_v = I.spring_v.as<int32_t>();
+  d.vs_ptr = I.vs_ptr.as<int32_t>();
+  d.vs_idx = I.vs_idx.as<int32_t>();
+  d.tris = I.tris.as<int32_t>();
+  d.vt_ptr = I.vt_ptr.as<int32_t>();
+  d.vt_idx = I.vt_idx.as<int32_t>();
+  d.hinge_v = I.hinge_v.as<int32_t>();
+  d.vh_ptr = I.vh_ptr.as<int32_t>();
+  d.vh_idx = I.vh_idx.as<int32_t>();
+  return d;
 }
 
 double SimGpu::force(const double* x, double* fout, sim::EnergyTerms* terms) {
@@ -747,6 +917,9 @@ size_t SimGpu::device_bytes() const {
   size_t s = 0;
   for (const DevBuf* b : {&I.spring_v, &I.vs_ptr, &I.vs_idx, &I.vw_ptr, &I.vw_idx, &I.nbr_ptr, &I.nbr_idx,
                           &I.self_slot, &I.rest_L, &I.shirring, &I.Q, &I.mass, &I.barrier_c, &I.stick_k, &I.stick_t,
+                          &I.tris, &I.vt_ptr, &I.vt_idx, &I.hinge_v, &I.vh_ptr, &I.vh_idx, &I.p, &I.rest_L64,
+                          &I.shirring64, &I.Q64, &I.mass64, &I.barrier_c64, &I.L_floored, &I.tri_area, &I.hinge_K,
+                          &I.hinge_w, &I.rest_part,
                           &I.sdf_values, &I.xbuf[0], &I.xbuf[1], &I.ck, &I.f, &I.D, &I.S, &I.part_eval,
                           &I.part_step, &I.ctrl, &I.upd_norm, &I.hist, &I.sums, &I.arrivals})
     s += b->bytes;

@@ -35,6 +35,21 @@ struct KernelTimes {
   double eval_bytes = 0, step_bytes = 0;                       // unique bytes each kernel must move
 };
 
+// Device pointers of the pattern, its float64 rest state and the topology that
+// goes with them, for the CUDA code beside the simulator (df/dp,
+// dfdp_gpu.cu): valid after sync() until the next one.
+struct DeviceRest {
+  int n = 0, n_springs = 0, n_tris = 0, n_hinges = 0;
+  const double *p = nullptr, *rest_L = nullptr, *shirring = nullptr, *mass = nullptr;
+  const uint8_t* L_floored = nullptr;
+  const int32_t *spring_v = nullptr, *vs_ptr = nullptr, *vs_idx = nullptr;
+  const int32_t *tris = nullptr, *vt_ptr = nullptr, *vt_idx = nullptr;
+  const int32_t *hinge_v = nullptr, *vh_ptr = nullptr, *vh_idx = nullptr;
+};
+
+// Copies `bytes` from device memory to host memory (synchronously).
+void copy_to_host(void* dst, const void* src, size_t bytes);
+
 class SimGpu {
  public:
   // Copies the simulator's topology, rest state, parameters and body. `sim`
@@ -44,10 +59,14 @@ class SimGpu {
   SimGpu(const SimGpu&) = delete;
   SimGpu& operator=(const SimGpu&) = delete;
 
-  // Re-read parameters, rest state and sticking (and the body, if it changed)
-  // from the simulator: call after set_params / set_pattern / set_shirring /
-  // set_sticking / set_sdf on it.
+  // Bring the device up to the simulator's model: call after set_params /
+  // set_pattern / set_shirring / set_sticking / set_sdf on it. Only what changed
+  // moves: a new pattern p (2n doubles) is uploaded and its rest state (rest
+  // lengths, masses, barrier weights, Q, the residual scale) recomputed here on
+  // the device (sim/rest_state.hpp), so the CPU simulator never has to.
   void sync();
+  double weight_norm() const;  // |m g0| of the synced rest state (the residual scale)
+  DeviceRest device_rest() const;
 
   // f = -dE/dx (3n) at x; returns the energy (+inf with a vertex inside).
   double force(const double* x, double* f, sim::EnergyTerms* terms);
@@ -77,6 +96,7 @@ class SimGpu {
   struct Impl;
 
  private:
+  void update_rest_state();  // from the uploaded p, on the device
   GpuOptions opt_;
   std::unique_ptr<Impl> impl_;
 };

@@ -10,6 +10,7 @@
 
 #include "sim/dfdp.hpp"
 #include "sim/jacobi_step.hpp"
+#include "sim/rest_state.hpp"
 #include "sim/terms/barrier.hpp"
 #include "sim/terms/bending.hpp"
 #include "sim/terms/mass.hpp"
@@ -275,6 +276,11 @@ SimArrays Simulator::arrays() const {
   a.vh_idx = vh_idx_.data();
   a.L_floored = L_floored_.data();
   a.m_floor = m_floor_;
+  a.L_floor = L_floor_;
+  a.rest_stale = rest_stale_;
+  a.rest_revision = rest_revision_;
+  a.shirring_revision = shirring_revision_;
+  a.sticking_revision = sticking_revision_;
   a.has_sdf = has_sdf_;
   a.sdf = sdf_;
   a.sdf_revision = sdf_revision_;
@@ -288,6 +294,7 @@ Sym3 Simulator::sdf_hess_at(Vec3 p) const {
 }
 
 void Simulator::set_params(const SimParams& params) {
+  ensure_rest_state();
   const bool mass_changed = params.density != params_.density;
   if (params.mu > 0 && !(params.barrier_distance > 0))
     throw SimError("simulator: the barrier distance must be positive");
@@ -295,14 +302,25 @@ void Simulator::set_params(const SimParams& params) {
   params_ = params;
   if (mass_changed) update_rest_state();
   if (mass_changed || barrier_changed) update_barrier_weights();
+  if (mass_changed || barrier_changed) ++rest_revision_;
 }
 
 void Simulator::set_pattern(const double* p) {
   for (int i = 0; i < 2 * n_; ++i)
     if (!std::isfinite(p[i])) throw SimError("simulator: pattern coordinate " + std::to_string(i / 2) + " is not finite");
   p_.assign(p, p + 2 * n_);
-  update_rest_state();
-  update_barrier_weights();
+  // The rest state follows on first use on the CPU: a search whose simulations run
+  // on the GPU recomputes it there from p (sim_gpu.cu) and need not pay for it here.
+  rest_stale_ = true;
+  ++rest_revision_;
+}
+
+void Simulator::ensure_rest_state() const {
+  if (!rest_stale_) return;
+  auto* self = const_cast<Simulator*>(this);  // a cache of p's consequences, not a change of state
+  self->update_rest_state();
+  self->update_barrier_weights();
+  rest_stale_ = false;
 }
 
 void Simulator::set_shirring(const double* r) {
@@ -311,9 +329,11 @@ void Simulator::set_shirring(const double* r) {
       throw SimError("simulator: shirring scale of spring " + std::to_string(e) + " must be positive");
   }
   shirring_.assign(r, r + n_springs());
+  ++shirring_revision_;
 }
 
 void Simulator::set_sticking(const double* k, const double* targets) {
+  ++sticking_revision_;
   any_sticking_ = false;
   for (int v = 0; v < n_; ++v) {
     if (!(k[v] >= 0) || !std::isfinite(k[v])) throw SimError("simulator: sticking stiffness must be >= 0");
@@ -331,25 +351,12 @@ void Simulator::update_rest_state() {
   const int E = n_springs(), T = n_triangles(), Hn = n_hinges();
   rest_L_.resize(E);
   L_floored_.assign(E, 0);
-  for (int e = 0; e < E; ++e) {
-    const int i = spring_v_[2 * e], j = spring_v_[2 * e + 1];
-    const double L = std::hypot(p_[2 * i] - p_[2 * j], p_[2 * i + 1] - p_[2 * j + 1]);
-    if (L < L_floor_) {
-      rest_L_[e] = L_floor_;
-      L_floored_[e] = 1;
-    } else {
-      rest_L_[e] = L;
-    }
-  }
+  for (int e = 0; e < E; ++e)
+    rest_L_[e] = spring_rest_length(p_.data(), spring_v_[2 * e], spring_v_[2 * e + 1], L_floor_, &L_floored_[e]);
   tri_area_.resize(T);
-  for (int t = 0; t < T; ++t)
-    tri_area_[t] = tri_area_2d(&p_[2 * tris_[3 * t]], &p_[2 * tris_[3 * t + 1]], &p_[2 * tris_[3 * t + 2]]);
-  mass_.assign(n_, 0.0);
-  for (int v = 0; v < n_; ++v) {
-    double a = 0;
-    for (int k = vt_ptr_[v]; k < vt_ptr_[v + 1]; ++k) a += tri_area_[vt_idx_[k] / 3];
-    mass_[v] = params_.density * a / 3.0;
-  }
+  for (int t = 0; t < T; ++t) tri_area_[t] = triangle_rest_area(p_.data(), &tris_[3 * t]);
+  mass_.resize(n_);
+  for (int v = 0; v < n_; ++v) mass_[v] = vertex_mass(v, vt_ptr_.data(), vt_idx_.data(), tri_area_.data(), params_.density);
   double s2 = 0;
   for (double m : mass_) s2 += m * m;
   weight_norm_ = kG0 * std::sqrt(s2);
@@ -357,30 +364,19 @@ void Simulator::update_rest_state() {
   hinge_K_.assign(4 * size_t(Hn), 0.0);
   hinge_w_.assign(Hn, 0.0);
 #pragma omp parallel for schedule(static) num_threads(threads_)
-  for (int h = 0; h < Hn; ++h) {
-    const int* hv = &hinge_v_[4 * h];
-    const HingeStencil<double> s = hinge_stencil<double>(&p_[2 * hv[0]], &p_[2 * hv[1]], &p_[2 * hv[2]], &p_[2 * hv[3]]);
-    for (int k = 0; k < 4; ++k) hinge_K_[4 * h + k] = s.K[k];
-    hinge_w_[h] = s.w;
-  }
+  for (int h = 0; h < Hn; ++h) hinge_rest(p_.data(), &hinge_v_[4 * h], &hinge_K_[4 * h], &hinge_w_[h]);
   // Q on the neighbour pattern, gathered per vertex.
   Q_.assign(nbr_idx_.size(), 0.0);
 #pragma omp parallel for schedule(static) num_threads(threads_)
-  for (int v = 0; v < n_; ++v) {
-    double* row = Q_.data() + nbr_ptr_[v];
-    for (int q = vh_ptr_[v]; q < vh_ptr_[v + 1]; ++q) {
-      const int h = vh_idx_[q] >> 2, k = vh_idx_[q] & 3;
-      const double w = hinge_w_[h];
-      if (w == 0) continue;
-      for (int l = 0; l < 4; ++l) row[slot_of(v, hinge_v_[4 * h + l])] += w * hinge_K_[4 * h + k] * hinge_K_[4 * h + l];
-    }
-  }
+  for (int v = 0; v < n_; ++v)
+    bending_q_row(v, vh_ptr_.data(), vh_idx_.data(), hinge_v_.data(), hinge_K_.data(), hinge_w_.data(), nbr_ptr_.data(),
+                  nbr_idx_.data(), Q_.data() + nbr_ptr_[v]);
 }
 
 void Simulator::update_barrier_weights() {
   barrier_c_.resize(n_);
   const double s = params_.mu * params_.barrier_length * kG0;
-  for (int v = 0; v < n_; ++v) barrier_c_[v] = s * std::max(mass_[v], m_floor_);
+  for (int v = 0; v < n_; ++v) barrier_c_[v] = barrier_weight(mass_[v], m_floor_, s);
 }
 
 void Simulator::set_threads(int threads) {
@@ -501,6 +497,7 @@ void Simulator::evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* d
 }
 
 double Simulator::energy(const double* x, EnergyTerms* terms) {
+  ensure_rest_state();
   EnergyTerms t;
   scratch_.resize(3 * size_t(n_));
   evaluate(x, scratch_.data(), &t, nullptr, nullptr);
@@ -509,6 +506,7 @@ double Simulator::energy(const double* x, EnergyTerms* terms) {
 }
 
 double Simulator::force(const double* x, double* f, EnergyTerms* terms) {
+  ensure_rest_state();
   EnergyTerms t;
   evaluate(x, f, &t, nullptr, nullptr);
   if (terms) *terms = t;
@@ -516,6 +514,7 @@ double Simulator::force(const double* x, double* f, EnergyTerms* terms) {
 }
 
 double Simulator::residual(const double* f) const {
+  ensure_rest_state();
   double s = 0;
 #pragma omp parallel for reduction(+ : s) schedule(static) num_threads(threads_)
   for (int i = 0; i < 3 * n_; ++i) s += f[i] * f[i];
@@ -523,6 +522,7 @@ double Simulator::residual(const double* f) const {
 }
 
 const Eigen::SparseMatrix<double>& Simulator::hessian(const double* x, bool psd) {
+  ensure_rest_state();
   const int E = n_springs();
   const double Y = params_.stretch_Y, Ys = params_.sewing_Y, kb = params_.bend_kb;
   const bool bar = has_sdf_ && params_.mu > 0;
@@ -572,6 +572,7 @@ const Eigen::SparseMatrix<double>& Simulator::hessian(const double* x, bool psd)
 }
 
 void Simulator::hess_vec(const double* x, const double* vin, double* out, bool psd) {
+  ensure_rest_state();
   const int E = n_springs();
   const double Y = params_.stretch_Y, Ys = params_.sewing_Y, kb = params_.bend_kb;
   const bool bar = has_sdf_ && params_.mu > 0;
@@ -610,6 +611,7 @@ void Simulator::hess_vec(const double* x, const double* vin, double* out, bool p
 }
 
 void Simulator::dfdp_T(const double* x, const double* lam, double* out) {
+  ensure_rest_state();
   const int E = n_springs(), Hn = n_hinges(), T = n_triangles();
   const double Y = params_.stretch_Y, kb = params_.bend_kb;
   const Vec3 gv = params_.gravity;
@@ -694,6 +696,7 @@ int Simulator::project_outside(double* x, double floor, double target) const {
 
 SolveReport Simulator::solve(double* x, const SolveSettings& s, const ProgressFn& progress,
                              const std::atomic<bool>* cancel, const NewtonStepFn& step) {
+  ensure_rest_state();
   for (int i = 0; i < 3 * n_; ++i)
     if (!std::isfinite(x[i])) throw SimError("simulator: start position of vertex " + std::to_string(i / 3) + " is not finite");
   if (s.method == 1) return solve_newton(x, s, progress, cancel, step);

@@ -133,6 +133,14 @@ struct SimArrays {
   const int32_t *hinge_v = nullptr, *vh_ptr = nullptr, *vh_idx = nullptr;  // 4H; hinges at a vertex: h*4 + k
   const uint8_t* L_floored = nullptr;                           // E
   double m_floor = 0;
+  double L_floor = 0;         // rest lengths below it are floored there
+  // The rest state (rest_L, Q, mass, barrier_c) is recomputed from p on first
+  // use after set_pattern: while rest_stale, those arrays are out of date (the
+  // GPU recomputes them from p itself). rest_revision changes whenever p or
+  // the mass or barrier parameters do.
+  bool rest_stale = false;
+  uint64_t rest_revision = 0;
+  uint64_t shirring_revision = 0, sticking_revision = 0;  // change with set_shirring / set_sticking
   bool has_sdf = false;
   SdfGridView sdf;            // host memory
   uint64_t sdf_revision = 0;  // changes whenever set_sdf / clear_sdf runs
@@ -154,7 +162,7 @@ class Simulator {
   void set_params(const SimParams& params);  // everything but the topology
   const SimParams& params() const { return params_; }
   SimArrays arrays() const;
-  void set_pattern(const double* p);         // new rest state (2n)
+  void set_pattern(const double* p);         // new rest state (2n), computed on first use
   void set_shirring(const double* r);        // per patch spring (n_springs)
   // Sticking: k (N/m) per vertex (0 = free) and target positions (3n).
   void set_sticking(const double* k, const double* targets);
@@ -168,9 +176,9 @@ class Simulator {
   const std::vector<int32_t>& springs() const { return spring_v_; }
   const std::vector<int32_t>& sewing() const { return sew_v_; }
   const std::vector<int32_t>& hinges() const { return hinge_v_; }
-  const std::vector<double>& masses() const { return mass_; }
-  const std::vector<double>& rest_lengths() const { return rest_L_; }
-  double weight_norm() const { return weight_norm_; }  // |m g0| (N), residual scale
+  const std::vector<double>& masses() const { ensure_rest_state(); return mass_; }
+  const std::vector<double>& rest_lengths() const { ensure_rest_state(); return rest_L_; }
+  double weight_norm() const { ensure_rest_state(); return weight_norm_; }  // |m g0| (N), residual scale
 
   // --- evaluation (x: 3n) --------------------------------------------------
   // Index of the first vertex with phi <= 0 (the barrier is undefined there), or -1.
@@ -214,6 +222,7 @@ class Simulator {
   void build_hessian_pattern();
   int slot_of(int v, int u) const;
   void update_rest_state();
+  void ensure_rest_state() const;  // update_rest_state + barrier weights when p changed since
   void update_barrier_weights();
   // Fused pass: energy terms, force, and (optionally) PSD diagonal blocks.
   // samples: per-vertex SDF samples, written here, or read when samples_known
@@ -250,6 +259,8 @@ class Simulator {
   std::vector<uint8_t> L_floored_;  // rest length clamped at L_floor_ (no p-derivative)
   double L_floor_ = 0, m_floor_ = 0;
   double weight_norm_ = 0;
+  mutable bool rest_stale_ = false;
+  uint64_t rest_revision_ = 0, shirring_revision_ = 0, sticking_revision_ = 0;
   // Sticking.
   std::vector<double> stick_k_, stick_t_;
   bool any_sticking_ = false;

@@ -74,8 +74,14 @@ class CudaSimulator:
         return self._gpu.device_bytes
 
     def sync(self) -> None:
-        """Re-read parameters, rest state, sticking and the body from the CPU simulator."""
+        """Bring the device up to the CPU simulator's model. Only what changed moves;
+        a new pattern is uploaded and its rest state computed on the device (the CPU
+        simulator computes its own only when a CPU method needs it)."""
         self._gpu.sync()
+
+    def rest_state(self) -> dict:
+        """The device's rest lengths, masses and weight norm (after a sync)."""
+        return self._gpu.rest_state()
 
     def energy(self, x) -> tuple[float, dict[str, float]]:
         return self._gpu.energy(np.asarray(x, dtype=np.float64))
@@ -90,7 +96,7 @@ class CudaSimulator:
         return self._gpu.hess_vec(np.asarray(x, dtype=np.float64), np.asarray(v, dtype=np.float64), bool(psd))
 
     def residual(self, x) -> float:
-        return float(np.linalg.norm(self.force(x)) / self._core_sim.weight_norm)
+        return float(np.linalg.norm(self.force(x)) / self._gpu.weight_norm)
 
     def _settings(self, tolerance, max_iterations, method="chebyshev"):
         sim = self.simulator

@@ -62,7 +62,7 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
             "objective_initial": r["objective_initial"], "objective_final": r["objective_final"],
             "objective_reduction": r["objective_reduction"], "converged": r["converged"],
             "message": r["message"], "drape": r["drape"], "adjoint": r.get("adjoint"),
-            "gpu_parts": "sim, adjoint, df/dp, costs" if r["device"] == "cuda" else None,
+            "gpu_parts": "sim, rest state, adjoint, df/dp, costs" if r["device"] == "cuda" else None,
             "uv_cm": res.uv_cm.tolist()}
 
 

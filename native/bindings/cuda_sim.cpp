@@ -17,6 +17,7 @@
 #include "costs_gpu.hpp"
 #include "dfdp_gpu.hpp"
 #include "newton_gpu.hpp"
+#include "pattern_gpu.hpp"
 #include "sim_gpu.hpp"
 #include "sim_report.hpp"
 #endif
@@ -284,6 +285,39 @@ void bind_cuda_sim(py::module_& m) {
            },
            py::arg("gpu"), py::arg("x"), py::arg("lam"),
            "(df/dp)^T lam (n, 2) at x for the simulator's current pattern and parameters.");
+
+  using seamfit::cuda::PatternGpu;
+  py::class_<PatternGpu>(m, "CudaPattern",
+                         "The pattern parametrization p(theta) and its adjoint on the GPU (dense per-panel blocks).")
+      .def(py::init([](const seamfit::opt::Parametrization& p, size_t max_bytes) { return new PatternGpu(p, max_bytes); }),
+           py::arg("parametrization"), py::arg("max_bytes"))
+      .def("pattern",
+           [](PatternGpu& g, const seamfit::opt::Parametrization& p, DArr theta) {
+             if (theta.ndim() != 2 || theta.shape(0) != p.n_boundary() || theta.shape(1) != 2)
+               throw py::value_error("theta must have shape (" + std::to_string(p.n_boundary()) + ", 2)");
+             py::array_t<double> out({py::ssize_t(p.n_vertices()), py::ssize_t(2)});
+             auto* op = reinterpret_cast<seamfit::Vec2*>(out.mutable_data());
+             {
+               py::gil_scoped_release nogil;
+               g.pattern(reinterpret_cast<const seamfit::Vec2*>(theta.data()), op);
+             }
+             return out;
+           },
+           py::arg("parametrization"), py::arg("theta"))
+      .def("adjoint",
+           [](PatternGpu& g, const seamfit::opt::Parametrization& p, DArr grad) {
+             if (grad.ndim() != 2 || grad.shape(0) != p.n_vertices() || grad.shape(1) != 2)
+               throw py::value_error("g must have shape (" + std::to_string(p.n_vertices()) + ", 2)");
+             py::array_t<double> out({py::ssize_t(p.n_boundary()), py::ssize_t(2)});
+             auto* op = reinterpret_cast<seamfit::Vec2*>(out.mutable_data());
+             {
+               py::gil_scoped_release nogil;
+               g.adjoint(reinterpret_cast<const seamfit::Vec2*>(grad.data()), op);
+             }
+             return out;
+           },
+           py::arg("parametrization"), py::arg("g"))
+      .def_property_readonly("device_bytes", &PatternGpu::device_bytes);
 
   using seamfit::cuda::CostSetGpu;
   py::class_<CostSetGpu>(m, "CudaCostSet",

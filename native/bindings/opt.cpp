@@ -144,7 +144,18 @@ void bind_opt(py::module_& m) {
              }
              return out;
            }, py::arg("g"), "(dp/dtheta)^T g: (n_vertices, 2) -> (n_boundary, 2)")
-      .def("laplacian_triplets", [](const opt::Parametrization& p) { return triplets(p.laplacian()); });
+      .def("laplacian_triplets", [](const opt::Parametrization& p) { return triplets(p.laplacian()); })
+      .def_property_readonly("harmonic_doubles", &opt::Parametrization::harmonic_doubles)
+      .def("harmonic_blocks", [](const opt::Parametrization& p) {
+             py::list out;
+             for (const auto& B : p.harmonic_blocks()) {
+               DArr M = new_array(int(B.rows.size()), int(B.cols.size()));
+               std::copy(B.M.begin(), B.M.end(), M.mutable_data());
+               out.append(py::make_tuple(py::array(py::cast(B.rows)), py::array(py::cast(B.cols)), M));
+             }
+             return out;
+           }, "Per panel: (rows into interior_ids, columns into theta, M) with the panel's interior moving by "
+              "M (theta - theta_bar)[columns].");
 
   py::class_<opt::Regularizers>(m, "Regularizers", "R^fix (Eq. 9) and R^cur (Eq. 10) over theta, and the preconditioner.")
       .def(py::init([](const DArr& theta_bar, const std::vector<std::vector<int>>& loops, const DArr& weight) {

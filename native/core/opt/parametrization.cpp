@@ -1,6 +1,8 @@
 #include "opt/parametrization.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -44,6 +46,23 @@ Parametrization::Parametrization(int n_vertices, const std::vector<Tri>& tris, c
     if (!used[v]) throw std::invalid_argument("pattern vertex " + std::to_string(v) + " belongs to no triangle");
   L_.resize(n_, n_);
   L_.setFromTriplets(trip.begin(), trip.end());
+
+  // Panels: the connected pieces of the triangle graph (union-find over triangle vertices).
+  std::vector<int> root(n_);
+  std::iota(root.begin(), root.end(), 0);
+  auto find = [&](int v) {
+    while (root[v] != v) v = root[v] = root[root[v]];
+    return v;
+  };
+  for (const Tri& t : tris)
+    for (int a = 1; a < 3; ++a) root[find(t[a])] = find(t[0]);
+  panel_.assign(n_, -1);
+  std::vector<int> id_of_root(n_, -1);
+  for (int v = 0; v < n_; ++v) {
+    const int r = find(v);
+    if (id_of_root[r] < 0) id_of_root[r] = n_panels_++;
+    panel_[v] = id_of_root[r];
+  }
 
   // Split the interior rows into the interior-interior and interior-boundary blocks.
   std::vector<Triplet> ti, tb;
@@ -98,6 +117,50 @@ void Parametrization::adjoint(const Vec2* g, Vec2* g_theta) const {
   const Eigen::MatrixX2d y = chol_.solve(gI);
   const Eigen::MatrixX2d back = LB_.transpose() * y;
   for (int b = 0; b < nb; ++b) g_theta[b] += make_vec2(-back(b, 0), -back(b, 1));
+}
+
+size_t Parametrization::harmonic_doubles() const {
+  std::vector<size_t> ni(n_panels_, 0), nb(n_panels_, 0);
+  for (int v : interior_) ++ni[panel_[v]];
+  for (int v : boundary_) ++nb[panel_[v]];
+  size_t total = 0;
+  for (int k = 0; k < n_panels_; ++k) total += ni[k] * nb[k];
+  return total;
+}
+
+std::vector<Parametrization::HarmonicBlock> Parametrization::harmonic_blocks() const {
+  std::vector<HarmonicBlock> blocks(n_panels_);
+  for (int i = 0; i < int(interior_.size()); ++i) blocks[panel_[interior_[i]]].rows.push_back(i);
+  for (int b = 0; b < n_boundary(); ++b) blocks[panel_[boundary_[b]]].cols.push_back(b);
+  for (HarmonicBlock& B : blocks) {
+    const int ni = int(B.rows.size()), nb = int(B.cols.size());
+    if (ni == 0 || nb == 0) continue;
+    // This panel's L^I_k and L^B_k (panels share no entries of L).
+    std::vector<int> local_row(interior_.size(), -1), local_col(boundary_.size(), -1);
+    for (int r = 0; r < ni; ++r) local_row[B.rows[r]] = r;
+    for (int c = 0; c < nb; ++c) local_col[B.cols[c]] = c;
+    std::vector<Triplet> ti, tb;
+    for (int c = 0; c < LI_.outerSize(); ++c)
+      for (SpMat::InnerIterator it(LI_, c); it; ++it)
+        if (local_row[it.row()] >= 0 && local_row[c] >= 0) ti.emplace_back(local_row[it.row()], local_row[c], it.value());
+    for (int c = 0; c < LB_.outerSize(); ++c)
+      for (SpMat::InnerIterator it(LB_, c); it; ++it)
+        if (local_row[it.row()] >= 0 && local_col[c] >= 0) tb.emplace_back(local_row[it.row()], local_col[c], it.value());
+    SpMat LIk(ni, ni), LBk(ni, nb);
+    LIk.setFromTriplets(ti.begin(), ti.end());
+    LBk.setFromTriplets(tb.begin(), tb.end());
+    Eigen::SimplicialLLT<SpMat> chol(LIk);
+    if (chol.info() != Eigen::Success) throw std::invalid_argument("interior Laplacian of a panel is not positive definite");
+    B.M.assign(size_t(ni) * nb, 0.0);
+    // One column of M_k per boundary entry; the columns are independent solves.
+#pragma omp parallel for schedule(dynamic, 8)
+    for (int c = 0; c < nb; ++c) {
+      const Eigen::VectorXd rhs = Eigen::VectorXd(LBk.col(c));
+      const Eigen::VectorXd col = chol.solve(rhs);
+      for (int r = 0; r < ni; ++r) B.M[size_t(r) * nb + c] = -col[r];
+    }
+  }
+  return blocks;
 }
 
 }  // namespace seamfit::opt

@@ -45,10 +45,24 @@ class Parametrization {
 
   const Eigen::SparseMatrix<double>& laplacian() const { return L_; }
 
+  // The interior update as dense blocks, one per panel (connected piece), for the
+  // GPU (cuda/pattern_gpu): panel k's interior moves by M_k (theta_k - theta_bar_k)
+  // with M_k = -(L^I_k)^-1 L^B_k. L^I is constant (the base pattern's), so this is
+  // computed once; the blocks hold sum_k n^I_k n^B_k doubles (harmonic_doubles()).
+  struct HarmonicBlock {
+    std::vector<int> rows;   // indices into interior_ids()
+    std::vector<int> cols;   // indices into theta (boundary_ids())
+    std::vector<double> M;   // rows.size() x cols.size(), row-major
+  };
+  size_t harmonic_doubles() const;
+  std::vector<HarmonicBlock> harmonic_blocks() const;
+
  private:
   int n_;
   std::vector<Vec2> pbar_;
   std::vector<int> boundary_, interior_;
+  std::vector<int> panel_;  // per vertex: its connected piece (panel)
+  int n_panels_ = 0;
   Eigen::SparseMatrix<double> L_, LI_, LB_;
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> chol_;
 };

@@ -16,6 +16,9 @@ class Parametrization:
     gives (dp/dtheta)^T g for a gradient ``g`` with respect to all pattern vertices.
     """
 
+    # Device memory the GPU's dense interior blocks may take (docs/gpu.md).
+    GPU_MAX_BYTES = 4 << 30
+
     def __init__(self, mesh):
         self.arrays = mesh_arrays(mesh)
         a = self.arrays
@@ -30,6 +33,32 @@ class Parametrization:
         # vertex id -> theta row (-1 for interior vertices)
         self.theta_index = np.full(a.n_vertices, -1, dtype=np.int64)
         self.theta_index[self.boundary_ids] = np.arange(len(self.boundary_ids))
+        self._gpu = None
+        self.device_note = ""   # why use_device("cuda") stayed on the CPU, if it did
+
+    def use_device(self, device: str) -> str:
+        """Evaluate p(theta) and its adjoint on "cpu" or "cuda" (dense per-panel blocks
+        of the interior update in GPU memory). Returns the device used: a pattern
+        whose blocks would not fit (GPU_MAX_BYTES, or half the free memory) stays
+        on the CPU, with the reason in ``device_note``."""
+        from ..errors import DeviceError, SolveError
+        if device == "cpu":
+            self._gpu = None
+            return "cpu"
+        if device != "cuda":
+            raise SolveError(f"unknown parametrization device {device!r} (cpu or cuda)")
+        from ..sim.cuda import require_cuda
+        require_cuda()
+        try:
+            self._gpu = core().CudaPattern(self._native, self.GPU_MAX_BYTES)
+        except DeviceError as exc:
+            self._gpu, self.device_note = None, str(exc)
+            return "cpu"
+        return "cuda"
+
+    @property
+    def device(self) -> str:
+        return "cpu" if self._gpu is None else "cuda"
 
     @property
     def n_theta(self) -> int:
@@ -37,11 +66,17 @@ class Parametrization:
 
     def pattern(self, theta) -> np.ndarray:
         """p(theta): (n_theta, 2) -> (n_vertices, 2), metres."""
-        return self._native.pattern(np.asarray(theta, dtype=float).reshape(-1, 2))
+        theta = np.ascontiguousarray(theta, dtype=float).reshape(-1, 2)
+        if self._gpu is not None:
+            return self._gpu.pattern(self._native, theta)
+        return self._native.pattern(theta)
 
     def adjoint(self, g) -> np.ndarray:
         """(dp/dtheta)^T g: (n_vertices, 2) -> (n_theta, 2)."""
-        return self._native.adjoint(np.asarray(g, dtype=float).reshape(-1, 2))
+        g = np.ascontiguousarray(g, dtype=float).reshape(-1, 2)
+        if self._gpu is not None:
+            return self._gpu.adjoint(self._native, g)
+        return self._native.adjoint(g)
 
     def theta_of(self, p) -> np.ndarray:
         """The parameters of a full pattern p (its boundary vertices)."""

@@ -153,6 +153,8 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     xtilde = transfer_garment(xbar, base_body, target_body, settings.bandwidth)
 
     param = Parametrization(mesh)
+    if device == "cuda":
+        param.use_device("cuda")
     # R^fix shapes the preconditioner; in f it would pull the pattern back to the base
     # (docs/grading.md, "R^fix in the preconditioner only").
     regs = Regularizers(param, strengths.fix, strengths.cur,

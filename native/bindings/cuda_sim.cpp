@@ -45,9 +45,9 @@ void require_x(const SimGpu& g, const py::array& x) {
     throw SimError("x must have shape (" + std::to_string(n) + ", 3)");
 }
 
-void require_outside(const SimGpu& g, const double* x) {
+void require_outside(SimGpu& g, const double* x) {
   double phi = 0;
-  const int v = g.simulator().first_inside(x, &phi);
+  const int v = g.first_inside(x, &phi);
   if (v >= 0)
     throw SimError("vertex " + std::to_string(v) + " is inside the body (phi = " + std::to_string(phi * 1000.0) +
                    " mm): the barrier is undefined there; call project_outside first");

@@ -283,6 +283,14 @@ __global__ void __launch_bounds__(kCtrlThreads) k_sum_parts(const double* part, 
   if (threadIdx.x == 0) out[0] = sh[0];
 }
 
+// The least index of a vertex with phi <= 0 in the barrier's field (first_inside).
+template <class R>
+__global__ void k_first_inside(DevModel<R> m, const double* x, int* first) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= m.n) return;
+  if (!(sim::barrier_field(m.sdf, m.smooth != 0, load3(x, v)).phi > 0)) atomicMin(first, v);
+}
+
 __global__ void k_to_float(const double* in, float* out, size_t count) {
   const size_t i = size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i < count) out[i] = float(in[i]);  // rounds to nearest, as the host conversion did
@@ -309,7 +317,7 @@ struct SimGpu::Impl {
   // float_rest the model reads the float32 copies below.
   DevBuf p, rest_L64, shirring64, Q64, mass64, barrier_c64, L_floored, tri_area, hinge_K, hinge_w, rest_part;
   DevBuf rest_L, shirring, Q, mass, barrier_c;  // float32 copies (float_rest)
-  DevBuf stick_k, stick_t, sdf_values;
+  DevBuf stick_k, stick_t, sdf_values, xcheck, first;
   uint64_t sdf_revision = ~uint64_t(0), rest_revision = ~uint64_t(0), shirring_revision = ~uint64_t(0),
            sticking_revision = ~uint64_t(0);
   DevModel<double> m64;
@@ -650,6 +658,28 @@ void SimGpu::update_rest_state() {
 }
 
 double SimGpu::weight_norm() const { return impl_->weight_norm; }
+
+int SimGpu::first_inside(const double* x, double* phi_out) {
+  Impl& I = *impl_;
+  if (!I.bar) return -1;
+  upload(I.xcheck, x, 3 * size_t(I.n), I.stream);
+  I.first.reserve(sizeof(int));
+  const int none = I.n;
+  SF_CUDA(cudaMemcpyAsync(I.first.p, &none, sizeof(int), cudaMemcpyHostToDevice, I.stream));
+  I.with_model([&](auto& m) {
+    k_first_inside<<<(I.n + 255) / 256, 256, 0, I.stream>>>(m, I.xcheck.as<double>(), I.first.as<int>());
+  });
+  SF_CUDA(cudaGetLastError());
+  int v = none;
+  SF_CUDA(cudaMemcpyAsync(&v, I.first.p, sizeof(int), cudaMemcpyDeviceToHost, I.stream));
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+  if (v >= I.n) return -1;
+  if (phi_out) {
+    const sim::SimArrays a = I.sim->arrays();
+    *phi_out = sim::barrier_field(a.sdf, I.params.barrier_smooth, make_vec3(x[3 * v], x[3 * v + 1], x[3 * v + 2])).phi;
+  }
+  return v;
+}
 
 void copy_to_host(void* dst, const void* src, size_t bytes) {
   SF_CUDA(cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToHost));

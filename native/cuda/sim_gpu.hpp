@@ -66,6 +66,10 @@ class SimGpu {
   // the device (sim/rest_state.hpp), so the CPU simulator never has to.
   void sync();
   double weight_norm() const;  // |m g0| of the synced rest state (the residual scale)
+  // As Simulator::first_inside (the least index of a vertex with phi <= 0 in the
+  // barrier's field, or -1), sampled on the device: the CPU's serial scan costs
+  // milliseconds at 60K triangles, and every GPU entry point checks its x.
+  int first_inside(const double* x, double* phi_out = nullptr);
   DeviceRest device_rest() const;
 
   // f = -dE/dx (3n) at x; returns the energy (+inf with a vertex inside).

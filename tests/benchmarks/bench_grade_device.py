@@ -63,6 +63,9 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
             "objective_reduction": r["objective_reduction"], "converged": r["converged"],
             "message": r["message"], "drape": r["drape"], "adjoint": r.get("adjoint"),
             "gpu_parts": "sim, rest state, adjoint, df/dp, costs" if r["device"] == "cuda" else None,
+            # the exact checkpoints (accepted or not) against loop time: how soon a reduction is reached
+            "exact_history": [[t, f] for t, f, e in zip(res.history["seconds"], res.history["objective"],
+                                                         res.history["exact"]) if e],
             "uv_cm": res.uv_cm.tolist()}
 
 

@@ -100,7 +100,9 @@ class GradeContext:
         return cb
 
     def exact(self, theta, x_start, stage):
-        """A converged drape of p(theta) on the target body, warm-started at x_start."""
+        """The drape of p(theta) on the target body, warm-started at x_start, solved to the
+        exact tolerance within the simulator's iteration budget (at 60K triangles the
+        budget ends first: docs/gpu.md, "What stands between")."""
         self.sim.set_pattern(self.param.pattern(theta))
         res = self.sim.solve(x_start, tolerance=self.exact_tolerance, progress=self.sim_progress(stage))
         if res.cancelled:

@@ -53,6 +53,20 @@ void require_outside(SimGpu& g, const double* x) {
                    " mm): the barrier is undefined there; call project_outside first");
 }
 
+// (rows_in, 2) -> (rows_out, 2) through fn with the GIL released: p(theta) and its adjoint.
+template <class Fn>
+py::array_t<double> pattern_map(const DArr& in, int rows_in, int rows_out, const char* name, Fn&& fn) {
+  if (in.ndim() != 2 || in.shape(0) != rows_in || in.shape(1) != 2)
+    throw py::value_error(std::string(name) + " must have shape (" + std::to_string(rows_in) + ", 2)");
+  py::array_t<double> out({py::ssize_t(rows_out), py::ssize_t(2)});
+  auto* op = reinterpret_cast<seamfit::Vec2*>(out.mutable_data());
+  {
+    py::gil_scoped_release nogil;
+    fn(reinterpret_cast<const seamfit::Vec2*>(in.data()), op);
+  }
+  return out;
+}
+
 // The keys of Simulator.solve's report (sim_report.hpp), plus the device.
 py::dict report_dict(const SolveReport& r, const SimGpu& g) {
   py::dict d = seamfit::bindings::report_dict(r);
@@ -293,28 +307,14 @@ void bind_cuda_sim(py::module_& m) {
            py::arg("parametrization"), py::arg("max_bytes"))
       .def("pattern",
            [](PatternGpu& g, const seamfit::opt::Parametrization& p, DArr theta) {
-             if (theta.ndim() != 2 || theta.shape(0) != p.n_boundary() || theta.shape(1) != 2)
-               throw py::value_error("theta must have shape (" + std::to_string(p.n_boundary()) + ", 2)");
-             py::array_t<double> out({py::ssize_t(p.n_vertices()), py::ssize_t(2)});
-             auto* op = reinterpret_cast<seamfit::Vec2*>(out.mutable_data());
-             {
-               py::gil_scoped_release nogil;
-               g.pattern(reinterpret_cast<const seamfit::Vec2*>(theta.data()), op);
-             }
-             return out;
+             return pattern_map(theta, p.n_boundary(), p.n_vertices(), "theta",
+                                [&](const seamfit::Vec2* in, seamfit::Vec2* out) { g.pattern(in, out); });
            },
            py::arg("parametrization"), py::arg("theta"))
       .def("adjoint",
            [](PatternGpu& g, const seamfit::opt::Parametrization& p, DArr grad) {
-             if (grad.ndim() != 2 || grad.shape(0) != p.n_vertices() || grad.shape(1) != 2)
-               throw py::value_error("g must have shape (" + std::to_string(p.n_vertices()) + ", 2)");
-             py::array_t<double> out({py::ssize_t(p.n_boundary()), py::ssize_t(2)});
-             auto* op = reinterpret_cast<seamfit::Vec2*>(out.mutable_data());
-             {
-               py::gil_scoped_release nogil;
-               g.adjoint(reinterpret_cast<const seamfit::Vec2*>(grad.data()), op);
-             }
-             return out;
+             return pattern_map(grad, p.n_vertices(), p.n_boundary(), "g",
+                                [&](const seamfit::Vec2* in, seamfit::Vec2* out) { g.adjoint(in, out); });
            },
            py::arg("parametrization"), py::arg("g"))
       .def_property_readonly("device_bytes", &PatternGpu::device_bytes);

@@ -101,6 +101,24 @@ struct PatternGpu::Impl {
   // Forward: rows = interior vertices panel by panel; adjoint: rows = theta entries panel by panel.
   DevBuf A_fwd, A_adj, f_block, f_row0, f_col0, f_ncols, f_off, a_block, a_row0, a_col0, a_ncols, a_off;
   DevBuf vrow, perm, vb, pbar, theta_bar, theta, dtheta, y, p, g, gI, z, gt;
+  DenseRows fwd, adj;  // the two products, their buffers bound once
+  DenseRows rows_of(const DevBuf& block, const DevBuf& row0, const DevBuf& col0, const DevBuf& ncols,
+                    const DevBuf& off, const DevBuf& A, int rows, const DevBuf& in, DevBuf& out) const {
+    DenseRows d;
+    d.rows = rows;
+    d.row_block = block.as<int32_t>();
+    d.row0 = row0.as<int32_t>();
+    d.col0 = col0.as<int32_t>();
+    d.ncols = ncols.as<int32_t>();
+    d.offset = off.as<int64_t>();
+    d.A = A.as<double>();
+    d.in = in.as<double>();
+    d.out = out.as<double>();
+    return d;
+  }
+  void launch(const DenseRows& d) const {
+    if (d.rows) k_dense_rows<<<grid(int64_t(d.rows) * 32, kThreads), kThreads, 0, stream>>>(d);
+  }
   ~Impl() {
     if (stream) cudaStreamDestroy(stream);
   }
@@ -187,6 +205,8 @@ PatternGpu::PatternGpu(const opt::Parametrization& param, size_t max_bytes) : im
   for (DevBuf* b : {&I.theta, &I.dtheta, &I.z, &I.gt}) b->reserve(2 * size_t(std::max(I.nb, 1)) * sizeof(double));
   for (DevBuf* b : {&I.y, &I.gI}) b->reserve(2 * size_t(std::max(I.ni, 1)) * sizeof(double));
   for (DevBuf* b : {&I.p, &I.g}) b->reserve(2 * size_t(std::max(I.n, 1)) * sizeof(double));
+  I.fwd = I.rows_of(I.f_block, I.f_row0, I.f_col0, I.f_ncols, I.f_off, I.A_fwd, I.ni, I.dtheta, I.y);
+  I.adj = I.rows_of(I.a_block, I.a_row0, I.a_col0, I.a_ncols, I.a_off, I.A_adj, I.nb, I.gI, I.z);
   SF_CUDA(cudaStreamSynchronize(s));  // the host vectors go out of scope
 }
 
@@ -198,19 +218,7 @@ void PatternGpu::pattern(const Vec2* theta, Vec2* p) {
   upload(I.theta, reinterpret_cast<const double*>(theta), 2 * size_t(I.nb), s);
   if (I.nb) k_dtheta<<<grid(I.nb, 256), 256, 0, s>>>(I.nb, I.perm.as<int32_t>(), I.theta.as<double>(),
                                                      I.theta_bar.as<double>(), I.dtheta.as<double>());
-  if (I.ni) {
-    DenseRows d;
-    d.rows = I.ni;
-    d.row_block = I.f_block.as<int32_t>();
-    d.row0 = I.f_row0.as<int32_t>();
-    d.col0 = I.f_col0.as<int32_t>();
-    d.ncols = I.f_ncols.as<int32_t>();
-    d.offset = I.f_off.as<int64_t>();
-    d.A = I.A_fwd.as<double>();
-    d.in = I.dtheta.as<double>();
-    d.out = I.y.as<double>();
-    k_dense_rows<<<grid(int64_t(I.ni) * 32, kThreads), kThreads, 0, s>>>(d);
-  }
+  I.launch(I.fwd);
   if (I.ni + I.nb)
     k_scatter_pattern<<<grid(I.ni + I.nb, 256), 256, 0, s>>>(I.ni, I.nb, I.vrow.as<int32_t>(), I.vb.as<int32_t>(),
                                                              I.pbar.as<double>(), I.y.as<double>(),
@@ -225,18 +233,8 @@ void PatternGpu::adjoint(const Vec2* g, Vec2* g_theta) {
   cudaStream_t s = I.stream;
   upload(I.g, reinterpret_cast<const double*>(g), 2 * size_t(I.n), s);
   if (I.ni) k_gather_rows<<<grid(I.ni, 256), 256, 0, s>>>(I.ni, I.vrow.as<int32_t>(), I.g.as<double>(), I.gI.as<double>());
+  I.launch(I.adj);
   if (I.nb) {
-    DenseRows d;
-    d.rows = I.nb;
-    d.row_block = I.a_block.as<int32_t>();
-    d.row0 = I.a_row0.as<int32_t>();
-    d.col0 = I.a_col0.as<int32_t>();
-    d.ncols = I.a_ncols.as<int32_t>();
-    d.offset = I.a_off.as<int64_t>();
-    d.A = I.A_adj.as<double>();
-    d.in = I.gI.as<double>();
-    d.out = I.z.as<double>();
-    k_dense_rows<<<grid(int64_t(I.nb) * 32, kThreads), kThreads, 0, s>>>(d);
     k_scatter_theta<<<grid(I.nb, 256), 256, 0, s>>>(I.nb, I.perm.as<int32_t>(), I.vb.as<int32_t>(), I.g.as<double>(),
                                                      I.z.as<double>(), I.gt.as<double>());
   }

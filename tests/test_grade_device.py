@@ -42,6 +42,8 @@ def graded(tmp_path_factory):
 def test_grading_runs_its_simulations_on_the_device(graded, device):
     _, rep = graded[device]
     assert rep["device"] == device
+    # every part of the loop on the device asked for (the sample's blocks fit easily)
+    assert set(rep["devices"].values()) == {device}, rep["devices"]
     assert rep["objective_final"] < rep["objective_initial"]
     assert rep["drape"]["max_sewing_gap_mm"] <= 2.0 and rep["drape"]["min_phi_mm"] >= -1.0
     split = rep["seconds_loop_split"]

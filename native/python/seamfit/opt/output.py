@@ -100,6 +100,11 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
     report = {
         "method": method,
         "device": sim.settings.device,
+        # Where each part of the loop ran (the parametrization stays on the CPU when its
+        # dense blocks would not fit in GPU memory, with the reason).
+        "devices": {"simulation": sim.settings.device, "adjoint": ctx.adjoint.device,
+                    "costs": ctx.costs.device, "parametrization": ctx.param.device,
+                    **({"parametrization_note": ctx.param.device_note} if ctx.param.device_note else {})},
         "objective_base_pattern": ctx.objective_base,
         "objective_initial": f0,
         "objective_final": f_final,

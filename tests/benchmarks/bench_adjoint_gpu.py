@@ -149,14 +149,18 @@ def cmd_ncu_target(args) -> int:
     return 0
 
 
-def ncu_table(path: Path) -> list[dict]:
-    """Per kernel, the medians of ncu's --csv metrics."""
+def ncu_table(path: Path, keep_args: bool = False) -> list[dict]:
+    """Per kernel, the medians of ncu's --csv metrics. keep_args: tell kernels of the same
+    name apart by their parameter types (kernels of different files share names)."""
     import csv
     import statistics
     text = [ln for ln in path.read_text().splitlines() if ln.startswith('"')]
     per: dict = {}
     for r in csv.DictReader(text):
         name = r["Kernel Name"].split("(")[0].split("::")[-1].split("<")[0]
+        if keep_args and "(" in r["Kernel Name"]:
+            arg = r["Kernel Name"].split("(", 1)[1].rstrip(")").split("::")[-1].split("<")[0]
+            name = f"{name}({arg})"
         k = per.setdefault(name, {"grid": r["Grid Size"].split(",")[0].strip("( "),
                                   "block": r["Block Size"].split(",")[0].strip("( ")})
         k.setdefault(r["Metric Name"], []).append(float(r["Metric Value"].replace(",", "")))

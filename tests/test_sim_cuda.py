@@ -381,6 +381,15 @@ def test_rest_state_follows_a_new_pattern(device):
         np.testing.assert_allclose(L, s * L0, rtol=1e-14)
         np.testing.assert_allclose(m, s * s * m0, rtol=1e-13)
         assert w == pytest.approx(s * s * w0, rel=1e-13)
+    # A new density after a new pattern: the masses follow both.
+    sim.set_pattern(1.1 * p0)
+    pr = sim.core.params
+    pr.density *= 2.0
+    sim.core.params = pr
+    m = sim.masses if device == "cpu" else ev.rest_state()["masses"]
+    np.testing.assert_allclose(m, 2.0 * 1.21 * m0, rtol=1e-13)
+    if device != "cpu":
+        np.testing.assert_allclose(m, sim.masses, rtol=1e-14)
 
 
 def test_cuda_request_without_a_gpu_fails_clearly(monkeypatch):

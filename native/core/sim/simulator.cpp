@@ -294,15 +294,15 @@ Sym3 Simulator::sdf_hess_at(Vec3 p) const {
 }
 
 void Simulator::set_params(const SimParams& params) {
-  ensure_rest_state();
   const bool mass_changed = params.density != params_.density;
   if (params.mu > 0 && !(params.barrier_distance > 0))
     throw SimError("simulator: the barrier distance must be positive");
   const bool barrier_changed = params.mu != params_.mu || params.barrier_length != params_.barrier_length;
   params_ = params;
+  if (mass_changed || barrier_changed) ++rest_revision_;
+  if (rest_stale_) return;  // rebuilt from these parameters on first use
   if (mass_changed) update_rest_state();
   if (mass_changed || barrier_changed) update_barrier_weights();
-  if (mass_changed || barrier_changed) ++rest_revision_;
 }
 
 void Simulator::set_pattern(const double* p) {

@@ -13,15 +13,22 @@ import numpy as np
 from helpers import BODY_BASE, BODY_TARGET, GRADE_ARGS, PENCIL, REPO
 
 
+def run_batch(args, cwd=None):
+    """scripts/batch_grade.py in a fresh Blender with its own user folder, which holds the
+    installed extension (about 200 MB) and is removed afterwards."""
+    with tempfile.TemporaryDirectory(prefix="seamfit-batch-user-") as user:
+        env = dict(os.environ, BLENDER_USER_RESOURCES=user)
+        return subprocess.run([sys.executable, str(REPO / "tests" / "blender" / "run_isolated.py"),
+                               str(REPO / "scripts" / "batch_grade.py"), *args],
+                              env=env, capture_output=True, text=True, cwd=cwd)
+
+
 def test_batch_script_writes_the_cli_files_and_a_blend(addon_zip, cli_grade, tmp_out):
     from seamfit.pattern import load_pattern
     cli_pattern, cli_report, cli_out = cli_grade
     out = tmp_out / "batch"
-    env = dict(os.environ, BLENDER_USER_RESOURCES=tempfile.mkdtemp(prefix="seamfit-batch-user-"))
-    proc = subprocess.run([sys.executable, str(REPO / "tests" / "blender" / "run_isolated.py"),
-                           str(REPO / "scripts" / "batch_grade.py"), str(PENCIL), "--base-body", str(BODY_BASE),
-                           "--target-body", str(BODY_TARGET), "--out", str(out), "--addon-zip", str(addon_zip),
-                           "--no-picture", *GRADE_ARGS], env=env, capture_output=True, text=True, cwd=tmp_out)
+    proc = run_batch([str(PENCIL), "--base-body", str(BODY_BASE), "--target-body", str(BODY_TARGET),
+                      "--out", str(out), "--addon-zip", str(addon_zip), "--no-picture", *GRADE_ARGS], cwd=tmp_out)
     assert proc.returncode == (0 if cli_report["converged"] else 1), proc.stderr[-3000:]
     assert sorted(p.name for p in out.iterdir()) == sorted(
         [p.name for p in cli_out.iterdir()] + ["graded.blend"])
@@ -45,12 +52,8 @@ def test_batch_script_writes_the_cli_files_and_a_blend(addon_zip, cli_grade, tmp
 
 
 def test_batch_script_reports_bad_input(addon_zip, tmp_out):
-    env = dict(os.environ, BLENDER_USER_RESOURCES=tempfile.mkdtemp(prefix="seamfit-batch-user-"))
-    proc = subprocess.run([sys.executable, str(REPO / "tests" / "blender" / "run_isolated.py"),
-                           str(REPO / "scripts" / "batch_grade.py"), str(tmp_out / "nope.json"),
-                           "--base-body", str(BODY_BASE), "--target-body", str(BODY_TARGET),
-                           "--out", str(tmp_out / "o"), "--addon-zip", str(addon_zip)],
-                          env=env, capture_output=True, text=True)
+    proc = run_batch([str(tmp_out / "nope.json"), "--base-body", str(BODY_BASE), "--target-body", str(BODY_TARGET),
+                      "--out", str(tmp_out / "o"), "--addon-zip", str(addon_zip)])
     assert proc.returncode == 2
     assert "batch_grade: error:" in proc.stderr and "nope.json: no such file" in proc.stderr
     assert not (tmp_out / "o").exists()

@@ -184,13 +184,7 @@ void Simulator::build_topology(int n_tris, const int32_t* tris, int n_sew, const
   spring_H_.resize(n_springs());
 }
 
-int Simulator::slot_of(int v, int u) const {
-  const int32_t* b = nbr_idx_.data() + nbr_ptr_[v];
-  const int32_t* e = nbr_idx_.data() + nbr_ptr_[v + 1];
-  const int32_t* it = std::lower_bound(b, e, u);
-  if (it == e || *it != u) return -1;
-  return int(it - b);
-}
+int Simulator::slot_of(int v, int u) const { return neighbour_slot(nbr_ptr_.data(), nbr_idx_.data(), v, u); }
 
 void Simulator::build_hessian_pattern() {
   // Column 3v+a holds rows 3u+b for u in nbr(v) (sorted), b = 0..2, so the

@@ -17,6 +17,9 @@
 #include "opt/regularizer_set.hpp"
 #include "opt/seam_length.hpp"
 #include "opt/transfer.hpp"
+#ifdef SEAMFIT_WITH_CUDA
+#include "regularizers_gpu.hpp"
+#endif
 
 namespace py = pybind11;
 
@@ -253,6 +256,54 @@ void bind_opt(py::module_& m) {
              check_shape(theta, s.n_theta(), 2, "theta");
              return triplets(s.gauss_newton(as<Vec2>(theta)));
            }, py::arg("theta"));
+
+#ifdef SEAMFIT_WITH_CUDA
+  // GPU copies of the two classes above (CudaError -> seamfit.errors.DeviceError, bind_cuda_sim).
+  using cuda::RegularizersGpu;
+  py::class_<RegularizersGpu>(m, "CudaRegularizers",
+                              "R^fix + R^cur and P^-1 g on the GPU (P^-1 dense, rebuilt when P changes).")
+      .def(py::init([](const opt::Regularizers& objective, opt::Regularizers& precond, size_t max_bytes) {
+             try {
+               return std::make_unique<RegularizersGpu>(objective, precond, max_bytes);
+             } catch (const std::invalid_argument& e) {
+               throw py::value_error(e.what());
+             }
+           }),
+           py::arg("objective"), py::arg("precond"), py::arg("max_bytes"),
+           py::keep_alive<1, 2>(), py::keep_alive<1, 3>())  // the CPU objects hold the strengths and P
+      .def_static("inverse_bytes", &RegularizersGpu::inverse_bytes, py::arg("n_theta"),
+                  "device bytes of P^-1 for n_theta boundary entries")
+      .def("evaluate", [](RegularizersGpu& g, const DArr& theta) {
+             check_shape(theta, g.n_theta(), 2, "theta");
+             DArr grad = new_array(g.n_theta(), 2);
+             std::array<double, 2> t{};
+             const double v = g.evaluate(as<Vec2>(theta), as_mut<Vec2>(grad), &t);
+             return py::make_tuple(v, py::make_tuple(t[0], t[1]), grad);
+           }, py::arg("theta"), "-> (value, (R_fix, R_cur), gradient), as Regularizers.evaluate")
+      .def("apply_preconditioner", [](RegularizersGpu& g, const DArr& grad) {
+             check_shape(grad, g.n_theta(), 2, "g");
+             DArr out = new_array(g.n_theta(), 2);
+             try {
+               g.apply_preconditioner(as<Vec2>(grad), as_mut<Vec2>(out));
+             } catch (const std::invalid_argument& e) {
+               throw py::value_error(e.what());
+             }
+             return out;
+           }, py::arg("g"), "P^-1 g")
+      .def_property_readonly("device_bytes", &RegularizersGpu::device_bytes)
+      .def_property_readonly("inverse_builds", &RegularizersGpu::inverse_builds);
+
+  using cuda::SeamLengthGpu;
+  py::class_<SeamLengthGpu>(m, "CudaSeamLength", "R^seam and its gradient on the GPU, mirroring a SeamLength.")
+      .def(py::init([](const opt::SeamLength& s) { return std::make_unique<SeamLengthGpu>(s); }), py::arg("seam"),
+           py::keep_alive<1, 2>())  // the CPU object holds the strength and the evaluation count
+      .def("evaluate", [](SeamLengthGpu& g, const DArr& theta) {
+             check_shape(theta, g.n_theta(), 2, "theta");
+             DArr grad = new_array(g.n_theta(), 2);
+             const double v = g.evaluate(as<Vec2>(theta), as_mut<Vec2>(grad));
+             return py::make_tuple(v, grad);
+           }, py::arg("theta"), "-> (value, gradient), as SeamLength.evaluate");
+#endif
 
   py::class_<PyCostSet>(m, "CostSet", "Fitting costs (Eq. 11-16) on the CPU.")
       .def(py::init([](const IArr& triangles, const DArr& pbar, const DArr& xbar) {

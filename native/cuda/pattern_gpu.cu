@@ -4,50 +4,13 @@
 
 #include <vector>
 
+#include "dense_rows.cuh"
 #include "dev_buffer.cuh"
 #include "sim_gpu.hpp"
 
 namespace seamfit::cuda {
 
 namespace {
-
-constexpr int kThreads = 256;  // 8 warps, one row each
-
-// out[r] = A_b(r) in_b(r) for dense row-major blocks laid end to end: row r of
-// the stacked rows belongs to block b, whose rows start at row0[b], whose
-// matrix starts at A + offset[b] with ncols[b] columns, and whose input is
-// in[col0[b] ...] (pairs: x and y of a pattern vector). One warp per row, its
-// lanes striding the row (coalesced), summed in a fixed order.
-struct DenseRows {
-  int rows = 0;
-  const int32_t *row_block = nullptr, *row0 = nullptr, *col0 = nullptr, *ncols = nullptr;
-  const int64_t* offset = nullptr;
-  const double* A = nullptr;
-  const double* in = nullptr;
-  double* out = nullptr;
-};
-
-__global__ void __launch_bounds__(kThreads) k_dense_rows(DenseRows d) {
-  const int r = int((int64_t(blockIdx.x) * blockDim.x + threadIdx.x) >> 5), lane = threadIdx.x & 31;
-  if (r >= d.rows) return;  // whole warps leave together
-  const int b = d.row_block[r], nc = d.ncols[b];
-  const double* a = d.A + d.offset[b] + int64_t(r - d.row0[b]) * nc;
-  const double* x = d.in + 2 * int64_t(d.col0[b]);
-  double sx = 0, sy = 0;
-  for (int c = lane; c < nc; c += 32) {
-    const double m = a[c];
-    sx += m * x[2 * c];
-    sy += m * x[2 * c + 1];
-  }
-  for (int o = 16; o > 0; o >>= 1) {
-    sx += __shfl_down_sync(0xffffffffu, sx, o);
-    sy += __shfl_down_sync(0xffffffffu, sy, o);
-  }
-  if (lane == 0) {
-    d.out[2 * r] = sx;
-    d.out[2 * r + 1] = sy;
-  }
-}
 
 // dtheta in block order: theta[perm[c]] - theta_bar[perm[c]].
 __global__ void k_dtheta(int nb, const int32_t* perm, const double* theta, const double* theta_bar, double* out) {
@@ -116,9 +79,7 @@ struct PatternGpu::Impl {
     d.out = out.as<double>();
     return d;
   }
-  void launch(const DenseRows& d) const {
-    if (d.rows) k_dense_rows<<<grid(int64_t(d.rows) * 32, kThreads), kThreads, 0, stream>>>(d);
-  }
+  void launch(const DenseRows& d) const { launch_dense_rows<2>(d, stream); }
   ~Impl() {
     if (stream) cudaStreamDestroy(stream);
   }

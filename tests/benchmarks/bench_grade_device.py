@@ -43,7 +43,7 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
     from seamfit.sim import SimSettings
 
     settings = GradeSettings(edge_length_cm=edge_cm, max_outer_iterations=args.max_iterations,
-                             sdf_spacing=args.sdf_spacing,
+                             sdf_spacing=args.sdf_spacing, sdf_region=args.sdf_region,
                              adjoint_forcing=args.adjoint_forcing,
                              checkpoint_every=args.checkpoint_every, device=device,
                              evaluate_base_pattern=False, time_budget_s=args.time_budget)
@@ -52,6 +52,7 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
     res = grade(load_pattern(PATTERN), load_body(B0), load_body(B1), settings, sim_settings=sim_settings)
     r = res.report
     return {"edge_length_cm": edge_cm, "sdf_spacing_mm": 1000 * args.sdf_spacing, "device": r["device"],
+            "sdf": r.get("sdf"),
             "adjoint_forcing": args.adjoint_forcing,
             "triangles": r["mesh"]["triangles"],
             "vertices": r["mesh"]["vertices"], "wall_s": time.perf_counter() - t0,
@@ -339,6 +340,9 @@ def main(argv=None) -> int:
     r.add_argument("--time-budget", type=float, default=0.0, help="seconds per grading (default none)")
     r.add_argument("--stage-seconds", type=float, default=120.0, help="time budget per drape stage")
     r.add_argument("--sdf-spacing", type=float, default=0.0025, help="body SDF spacing in metres")
+    r.add_argument("--sdf-region", choices=("auto", "body", "garment"), default="auto",
+                   help="body SDFs over the whole body, cut to the garment's height band, or auto (whole body "
+                        "unless its grid is over the builder's node limit)")
     r.add_argument("--adjoint-forcing", type=float, default=0.0,
                    help="GPU adjoint tolerance at inexact states: max(1e-8, F * residual)")
     r.set_defaults(func=cmd_run)

@@ -1,5 +1,6 @@
 #include "opt/regularizer_set.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "opt/costs/regularizers.hpp"
@@ -22,34 +23,34 @@ Regularizers::Regularizers(const std::vector<Vec2>& theta_bar, const std::vector
       w_.push_back(weight[i]);
     }
   }
+  gather_.build(elem_.empty() ? nullptr : &elem_[0][0], int(elem_.size()), 3, nt);
 }
 
 void Regularizers::set_strengths(double delta_fix, double delta_cur) {
   if (delta_fix < 0 || delta_cur < 0) throw std::invalid_argument("regularizer strengths must be >= 0");
-  if (delta_fix != fix_ || delta_cur != cur_) factored_ = false;
+  if (delta_fix != fix_ || delta_cur != cur_) {
+    factored_ = false;
+    ++version_;
+  }
   fix_ = delta_fix;
   cur_ = delta_cur;
 }
 
 double Regularizers::evaluate(const Vec2* theta, Vec2* grad, std::array<double, 2>* terms) const {
+  // Elements, then a gather per theta entry: the steps the GPU kernels take (costs/regularizers.hpp).
   const int nt = n_theta();
-  for (int b = 0; b < nt; ++b) grad[b] = make_vec2(0, 0);
+  const bool cur_on = cur_ != 0;
+  std::vector<Vec2> slot(cur_on ? 3 * elem_.size() : 0);
   double rfix = 0, rcur = 0;
-  if (fix_ != 0)
-    for (int b = 0; b < nt; ++b) {
-      Vec2 g;
-      rfix += fix_regularizer(theta[b], theta_bar_[b], fix_, &g);
-      grad[b] += g;
-    }
-  if (cur_ != 0)
-    for (size_t e = 0; e < elem_.size(); ++e) {
-      const auto& el = elem_[e];
-      Vec2 gj, gi, gk;
-      rcur += curve_regularizer(theta[el[0]], theta[el[1]], theta[el[2]], z_[e], cur_ * w_[e], &gj, &gi, &gk);
-      grad[el[0]] += gj;
-      grad[el[1]] += gi;
-      grad[el[2]] += gk;
-    }
+  if (cur_on)
+    for (size_t e = 0; e < elem_.size(); ++e)
+      rcur += curve_element(theta, elem_[e].data(), z_[e], cur_ * w_[e], &slot[3 * e]);
+  for (int b = 0; b < nt; ++b) {
+    double vf;
+    grad[b] = regularizer_gradient_at(b, theta, theta_bar_.data(), fix_, cur_on, gather_.offsets.data(),
+                                      gather_.slots.data(), slot.data(), &vf);
+    rfix += vf;
+  }
   if (terms) *terms = {rfix, rcur};
   return rfix + rcur;
 }
@@ -84,6 +85,7 @@ void Regularizers::set_extra_hessian(const Eigen::SparseMatrix<double>& H) {
     throw std::invalid_argument("extra preconditioner block must be (2 n_theta, 2 n_theta)");
   extra_ = H;
   factored_ = false;
+  ++version_;
 }
 
 void Regularizers::factorize() {
@@ -100,6 +102,32 @@ void Regularizers::apply_preconditioner(const Vec2* g, Vec2* out) {
   for (int b = 0; b < nt; ++b) { v[2 * b] = g[b].x; v[2 * b + 1] = g[b].y; }
   const Eigen::VectorXd s = chol_.solve(v);
   for (int b = 0; b < nt; ++b) out[b] = make_vec2(s[2 * b], s[2 * b + 1]);
+}
+
+void Regularizers::dense_inverse(double* out) {
+  if (!factored_) factorize();
+  const long n = 2L * n_theta();
+  // Columns of P^-1 in blocks of unit vectors; the solves only read the factorization.
+  constexpr long kBlock = 64;
+  const long nblocks = (n + kBlock - 1) / kBlock;
+#pragma omp parallel for schedule(dynamic)
+  for (long blk = 0; blk < nblocks; ++blk) {
+    const long c0 = blk * kBlock, nc = std::min(kBlock, n - c0);
+    Eigen::MatrixXd E = Eigen::MatrixXd::Zero(n, nc);
+    for (long c = 0; c < nc; ++c) E(c0 + c, c) = 1.0;
+    const Eigen::MatrixXd X = chol_.solve(E);
+    // Column c of P^-1 into row c (equal for a symmetric P up to rounding).
+    for (long c = 0; c < nc; ++c)
+      for (long r = 0; r < n; ++r) out[(c0 + c) * n + r] = X(r, c);
+  }
+  // Exactly symmetric, as P is: the mean of the two triangles.
+#pragma omp parallel for schedule(dynamic, 16)
+  for (long r = 0; r < n; ++r)
+    for (long c = r + 1; c < n; ++c) {
+      const double m = 0.5 * (out[r * n + c] + out[c * n + r]);
+      out[r * n + c] = m;
+      out[c * n + r] = m;
+    }
 }
 
 }  // namespace seamfit::opt

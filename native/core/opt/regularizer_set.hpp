@@ -14,6 +14,7 @@
 #include <array>
 #include <vector>
 
+#include "opt/topology.hpp"
 #include "opt/vec2.hpp"
 
 namespace seamfit::opt {
@@ -35,6 +36,12 @@ class Regularizers {
 
   // P^-1 g. The factorization is rebuilt when the strengths change.
   void apply_preconditioner(const Vec2* g, Vec2* out);
+  // P^-1 as a dense symmetric (2 n_theta)^2 matrix, row-major, from the factorization
+  // (one solve per column, in parallel, then symmetrized): the GPU's preconditioner.
+  void dense_inverse(double* out);
+  // Changes whenever P does (strengths, extra block): a copy of P or P^-1 elsewhere is
+  // current while its version matches.
+  long preconditioner_version() const { return version_; }
   Eigen::SparseMatrix<double> hessian() const;
   // A constant matrix added to P (the seam term's Gauss-Newton Hessian at the base
   // pattern, seamfit.opt.seam); an empty matrix removes it.
@@ -43,6 +50,11 @@ class Regularizers {
   int n_theta() const { return int(theta_bar_.size()); }
   // Curve elements (j, i, k) and their frames z_i and weights w_i.
   const std::vector<std::array<int, 3>>& curve_elements() const { return elem_; }
+  const std::vector<Vec2>& curve_frames() const { return z_; }
+  const std::vector<double>& curve_weights() const { return w_; }
+  const std::vector<Vec2>& theta_bar() const { return theta_bar_; }
+  // theta entry -> its curve element slots (3 e + a).
+  const Gather& curve_gather() const { return gather_; }
 
  private:
   void factorize();
@@ -50,7 +62,9 @@ class Regularizers {
   std::vector<std::array<int, 3>> elem_;
   std::vector<Vec2> z_;
   std::vector<double> w_;
+  Gather gather_;
   double fix_ = 0, cur_ = 0;
+  long version_ = 0;
   Eigen::SparseMatrix<double> extra_;
   bool factored_ = false;
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> chol_;

@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include "opt/costs/gather.hpp"
 #include "opt/costs/seam_length.hpp"
 
 namespace seamfit::opt {
@@ -17,6 +18,7 @@ SeamLength::SeamLength(const std::vector<Vec2>& theta_bar, const std::vector<Sea
     seg_.push_back(s);
     rho_.push_back(la / lb);
   }
+  gather_.build(seg_.empty() ? nullptr : &seg_[0][0], int(seg_.size()), 4, n_theta_);
 }
 
 void SeamLength::set_strength(double delta_seam) {
@@ -25,14 +27,14 @@ void SeamLength::set_strength(double delta_seam) {
 }
 
 double SeamLength::evaluate(const Vec2* theta, Vec2* grad) const {
+  // Segments, then a gather per theta entry: the steps the GPU kernels take.
   ++evaluations_;
-  for (int b = 0; b < n_theta_; ++b) grad[b] = make_vec2(0, 0);
+  std::vector<Vec2> slot(4 * seg_.size());
   double v = 0;
-  for (size_t e = 0; e < seg_.size(); ++e) {
-    const auto& s = seg_[e];
-    Vec2 g[4];
-    v += seam_segment(theta[s[0]], theta[s[1]], theta[s[2]], theta[s[3]], rho_[e], delta_, g);
-    for (int c = 0; c < 4; ++c) grad[s[c]] += g[c];
+  for (size_t e = 0; e < seg_.size(); ++e) v += seam_element(theta, seg_[e].data(), rho_[e], delta_, &slot[4 * e]);
+  for (int b = 0; b < n_theta_; ++b) {
+    grad[b] = make_vec2(0, 0);
+    gather_add(b, gather_.offsets.data(), gather_.slots.data(), slot.data(), grad[b]);
   }
   return v;
 }

@@ -5,6 +5,7 @@
 #include <array>
 #include <vector>
 
+#include "opt/topology.hpp"
 #include "opt/vec2.hpp"
 
 namespace seamfit::opt {
@@ -31,11 +32,16 @@ class SeamLength {
   const std::vector<SeamSegment>& segments() const { return seg_; }
   const std::vector<double>& ratios() const { return rho_; }
   long evaluations() const { return evaluations_; }
+  // An evaluation made elsewhere (the GPU copy) on this term's data.
+  void count_evaluation() const { ++evaluations_; }
+  // theta entry -> its segment slots (4 e + c).
+  const Gather& segment_gather() const { return gather_; }
 
  private:
   int n_theta_;
   std::vector<SeamSegment> seg_;
   std::vector<double> rho_;
+  Gather gather_;
   double delta_ = 0;
   mutable long evaluations_ = 0;
 };

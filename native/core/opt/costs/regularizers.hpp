@@ -11,6 +11,7 @@
 // (The similarity that best maps dbar_i onto d_i itself would always fit exactly, since
 // a 2D similarity has two degrees of freedom, and make R^cur vanish identically.)
 #pragma once
+#include "opt/costs/gather.hpp"
 #include "opt/vec2.hpp"
 
 namespace seamfit {
@@ -42,6 +43,27 @@ SF_HD double curve_regularizer(Vec2 pj, Vec2 pi, Vec2 pk, Vec2 z, double kw, Vec
   *gi = -2.0 * gr;
   *gk = gr - zg;
   return 0.5 * kw * norm2(r);
+}
+
+// The per-element and per-entry steps of R^fix + R^cur over theta, shared by the CPU loop
+// (opt::Regularizers::evaluate) and the GPU kernels (cuda/regularizers_gpu.cu): each curve
+// element writes its value and three gradient slots, then each theta entry gathers its
+// slots in slot order (no atomics, the sum order of a scatter in element order).
+
+// Curve element jik = (j, i, k): value; gradient slots (j, i, k) into slot[0..2].
+SF_HD double curve_element(const Vec2* theta, const int* jik, Vec2 z, double kw, Vec2* slot) {
+  return curve_regularizer(theta[jik[0]], theta[jik[1]], theta[jik[2]], z, kw, &slot[0], &slot[1], &slot[2]);
+}
+
+// Gradient of R at theta entry b: R^fix's term, then (cur_on) the curve slots touching b
+// (gather table offsets / slots). R^fix at b into *vfix (0 when fix is 0).
+SF_HD Vec2 regularizer_gradient_at(int b, const Vec2* theta, const Vec2* theta_bar, double fix, bool cur_on,
+                                   const int* offsets, const int* slots, const Vec2* slot_vals, double* vfix) {
+  Vec2 g = make_vec2(0, 0);
+  *vfix = 0;
+  if (fix != 0) *vfix = fix_regularizer(theta[b], theta_bar[b], fix, &g);
+  if (cur_on) gather_add(b, offsets, slots, slot_vals, g);
+  return g;
 }
 
 }  // namespace seamfit

@@ -64,6 +64,13 @@ def register(subparsers) -> None:
                    help=f"mesh edge length in cm (default {d.edge_length_cm})")
     p.add_argument("--sdf-spacing", metavar="M", type=float, default=d.sdf_spacing,
                    help=f"body SDF spacing in metres (default {d.sdf_spacing})")
+    p.add_argument("--sdf-region", choices=("auto", "body", "garment"), default=d.sdf_region,
+                   help="where the body SDFs are built: body (the whole body), garment (cut to the garment's "
+                        "height band plus --sdf-margin: fine spacings for fine meshes) or auto (the whole body "
+                        f"unless its grid would exceed the SDF builder's node limit; default {d.sdf_region})")
+    p.add_argument("--sdf-margin", metavar="M", type=float, default=d.sdf_region_margin,
+                   help="with a cropped field, how far above and below the garment it reaches, in metres "
+                        f"(default {d.sdf_region_margin})")
     p.add_argument("--inner-iterations", "-S", metavar="S", type=int, default=d.inner_iterations,
                    help=f"simulation iterations per outer iteration (default {d.inner_iterations})")
     p.add_argument("--checkpoint-every", "-M", metavar="M", type=int, default=d.checkpoint_every,
@@ -105,7 +112,8 @@ def run(args) -> int:
         from dataclasses import replace
         strengths = replace(strengths, **overrides)
     settings = GradeSettings(preset=args.preset, strengths=strengths, method=args.method, edge_length_cm=args.edge_length,
-                             sdf_spacing=args.sdf_spacing, inner_iterations=args.inner_iterations,
+                             sdf_spacing=args.sdf_spacing, sdf_region=args.sdf_region,
+                             sdf_region_margin=args.sdf_margin, inner_iterations=args.inner_iterations,
                              checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,
                              time_budget_s=args.time_budget, device=args.device,
                              adjoint_forcing=args.adjoint_forcing)
@@ -153,6 +161,8 @@ def run(args) -> int:
                      body_vertices=target_body.vertices, body_faces=target_body.faces,
                      title=f"{base_pattern.garment_id or args.pattern.stem} graded to {target_body.name}")
     atomic_write_text(out / "report.json", json.dumps(report, indent=1, default=json_default) + "\n")
+    if (report.get("sdf") or {}).get("warning"):  # even with -q: collisions may have been missed
+        print(f"seamfit grade: warning: {report['sdf']['warning']}", file=sys.stderr)
     if not args.quiet:
         r = report
         print(f"{r['method']}: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} "

@@ -28,6 +28,7 @@ from .objective import Objective
 from .output import GradeResult, SearchOutcome, finish, remove_panel_rotations
 from .prepare import ProgressFn, base_drape, prepare
 from .presets import preset
+from .sdf_region import GARMENT_REGION_MARGIN, check_sdf_region, garment_outside_field
 from .transfer import DEFAULT_BANDWIDTH
 
 METHODS = ("adjoint", "two-phase", "fixed-point")
@@ -48,6 +49,11 @@ class GradeSettings:
     method: str = "adjoint"            # adjoint | two-phase | fixed-point
     edge_length_cm: float = 1.5
     sdf_spacing: float = 0.0025        # the paper's 2.5 mm
+    # Where the body fields are built: "body" (whole body), "garment" (cut to the garment's
+    # height band +- sdf_region_margin m) or "auto" (whole body unless its grid would exceed
+    # the SDF builder's node limit; docs/grading.md, "The body fields' region").
+    sdf_region: str = "auto"
+    sdf_region_margin: float = GARMENT_REGION_MARGIN
     inner_iterations: int = 8          # S: simulation iterations per outer iteration
     min_inner_iterations: int = 2
     max_inner_iterations: int = 512
@@ -90,6 +96,9 @@ class GradeSettings:
             raise SolveError("inner_iterations and checkpoint_every must be >= 1, max_outer_iterations >= 0")
         if not (self.step > 0 and self.edge_length_cm > 0 and self.sdf_spacing > 0):
             raise SolveError("step, edge_length_cm and sdf_spacing must be > 0")
+        check_sdf_region(self.sdf_region)
+        if not (self.sdf_region_margin >= 0):
+            raise SolveError(f"sdf_region_margin must be >= 0 metres, got {self.sdf_region_margin}")
         if not (0 < self.fixed_point_relaxation <= 1 and self.fixed_point_tolerance_mm > 0):
             raise SolveError("fixed_point_relaxation must be in (0, 1] and fixed_point_tolerance_mm > 0")
 
@@ -123,4 +132,10 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
     ctx = prepare(base_pattern, base_body, target_body, settings, fabric=fabric, sim_settings=sim_settings,
                   progress=progress)
     outcome = SEARCHES[settings.method](ctx)
-    return finish(ctx, settings.method, outcome)
+    result = finish(ctx, settings.method, outcome)
+    # The fields' regions and sizes; a cropped target field is checked against the result
+    # (the base one was checked at the end of the base drape).
+    fields = ctx.extra["sdf"]
+    warning = garment_outside_field(ctx.target_sdf, fields["target"], result.x, "target", "of the result")
+    result.report["sdf"] = {**fields, **({"warning": warning} if warning else {})}
+    return result

@@ -100,11 +100,13 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
     report = {
         "method": method,
         "device": sim.settings.device,
-        # Where each part of the loop ran (the parametrization stays on the CPU when its
-        # dense blocks would not fit in GPU memory, with the reason).
+        # Where each part of the loop ran (the parametrization and the regularizers stay on
+        # the CPU when their dense blocks / P^-1 would not fit in GPU memory, with the reason).
         "devices": {"simulation": sim.settings.device, "adjoint": ctx.adjoint.device,
                     "costs": ctx.costs.device, "parametrization": ctx.param.device,
-                    **({"parametrization_note": ctx.param.device_note} if ctx.param.device_note else {})},
+                    **({"parametrization_note": ctx.param.device_note} if ctx.param.device_note else {}),
+                    "regularizers": ctx.regs.device, "seam": ctx.seam.device,
+                    **({"regularizers_note": ctx.regs.device_note} if ctx.regs.device_note else {})},
         "objective_base_pattern": ctx.objective_base,
         "objective_initial": f0,
         "objective_final": f_final,

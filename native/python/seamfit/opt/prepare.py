@@ -10,7 +10,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from ..cache import content_key, load_arrays, save_arrays
+from ..cache import cache_root, content_key, load_arrays, save_arrays
 from ..device import resolve_device
 from ..errors import SolveError
 from ..mesh import build_sewn_mesh
@@ -22,6 +22,8 @@ from .objective import Objective
 from .parametrization import Parametrization
 from .regularizers import Regularizers
 from .seam import SeamLength
+from .sdf_region import (GARMENT_REGION_MARGIN, body_field, garment_outside_field, placement_z_range,
+                         resolve_sdf_region)
 from .transfer import transfer_garment
 
 ProgressFn = Callable[[dict], Optional[bool]]
@@ -121,7 +123,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
             sim_settings: SimSettings | None = None, progress: ProgressFn | None = None) -> GradeContext:
     """Mesh, SDFs, x-bar, x-tilde and the grading objective; with
     ``settings.evaluate_base_pattern`` also the objective of the unchanged pattern on the target."""
-    from ..body import build_sdf
+    from ..body import check_body
 
     t_start = time.perf_counter()
     fabric = fabric or Fabric()
@@ -141,8 +143,19 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     if device != sim_settings.device:
         sim_settings = replace(sim_settings, device=device)
     tell(stage="sdf")
-    base_sdf = build_sdf(base_body, spacing=settings.sdf_spacing)
-    target_sdf = build_sdf(target_body, spacing=settings.sdf_spacing)
+    # Each body's field over its whole box, or cut to the garment's height band where that
+    # grid would be too large (sdf_region; docs/grading.md, "The body fields' region").
+    region = getattr(settings, "sdf_region", "auto")
+    margin = getattr(settings, "sdf_region_margin", GARMENT_REGION_MARGIN)
+    base_region = resolve_sdf_region(region, base_body, settings.sdf_spacing)
+    target_region = resolve_sdf_region(region, target_body, settings.sdf_spacing)
+    base_sdf, base_field = body_field(
+        base_body, settings.sdf_spacing, base_region, margin=margin,
+        z_range=placement_z_range(mesh, base_pattern, base_body) if base_region == "garment" else None)
+    if target_region == "body":
+        target_sdf, target_field = body_field(target_body, settings.sdf_spacing, "body")
+    else:
+        check_body(target_body)  # fail before the base drape, as the whole-body build would
 
     tell(stage="base drape")
 
@@ -151,8 +164,21 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
 
     xbar, base_info = base_drape(mesh, base_pattern, base_body, base_sdf, fabric, sim_settings,
                                  progress=drape_progress)
+    problem = garment_outside_field(base_sdf, base_field, xbar, "base", "at the end of the base drape")
+    if problem:
+        if not base_info.get("cached"):
+            # Its cache key holds the field's spacing, not its box: a drape that left the
+            # field must not be served to the next run (with sdf_region "body", say).
+            (cache_root() / "drape" / f"{base_info['key']}.npz").unlink(missing_ok=True)
+        raise SolveError(problem)
     tell(stage="transfer")
     xtilde = transfer_garment(xbar, base_body, target_body, settings.bandwidth)
+    if target_region == "garment":
+        # The target's region follows x-tilde, the garment on the target body: the search
+        # starts from it and its positional cost pulls the drape towards it.
+        tell(stage="sdf")
+        target_sdf, target_field = body_field(target_body, settings.sdf_spacing, "garment", margin=margin,
+                                              z_range=(float(xtilde[:, 2].min()), float(xtilde[:, 2].max())))
 
     param = Parametrization(mesh)
     if device == "cuda":
@@ -164,6 +190,11 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     seam = SeamLength(param, mesh, strengths.seam)
     if seam.active and getattr(settings, "seam_in_preconditioner", True):
         regs.add_to_preconditioner(seam.gauss_newton())
+    if device == "cuda":
+        # R^fix + R^cur, R^seam and P^-1 too; P^-1 stays on the CPU, with the reason in
+        # regs.device_note, when it would not fit (docs/gpu.md).
+        regs.use_device("cuda")
+        seam.use_device("cuda")
     costs = CostSet(mesh, xbar, strengths, target_sdf=target_sdf, base_sdf=base_sdf, xtilde=xtilde)
     if device == "cuda":
         costs.use_device("cuda")
@@ -179,7 +210,9 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         base_info=base_info, param=param, regs=regs, costs=costs, seam=seam, sim=sim, adjoint=adjoint,
         objective=Objective(param, regs, costs, sim, adjoint, seam),
         exact_tolerance=exact_tolerance, progress=progress, t_start=t_start)
+    ctx.extra["sdf"] = {"requested": region, "base": base_field, "target": target_field}
     if settings.evaluate_base_pattern:
         rb = ctx.start_from_base_pattern()
         ctx.objective_base, ctx.terms_base = ctx.objective.objective(rb.x, param.theta_bar)
     return ctx
+

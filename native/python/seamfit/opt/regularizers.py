@@ -22,7 +22,16 @@ class Regularizers:
     the preconditioner's ``delta_fix`` (0: R^fix only keeps P positive definite and does
     not pull the pattern back to the base; an option of a grading, measured in
     docs/grading.md).
+
+    ``use_device("cuda")`` moves ``evaluate`` and ``apply_preconditioner`` to the GPU
+    (P^-1 dense in GPU memory, docs/gpu.md); the strengths and P stay in the CPU objects,
+    which the GPU copy reads, so ``set_strengths`` and ``add_to_preconditioner`` apply
+    to it too.
     """
+
+    # Device memory P^-1 may take: 8 (2 n_theta)^2 bytes, 81 MiB at 60K triangles
+    # (docs/gpu.md, "The regularizers, R^seam and P^-1 on the GPU").
+    GPU_MAX_BYTES = 512 << 20
 
     def __init__(self, param, delta_fix: float, delta_cur: float, corner_weight: float = CORNER_WEIGHT, *,
                  objective_fix: float | None = None):
@@ -43,6 +52,38 @@ class Regularizers:
         if objective_fix is not None and float(objective_fix) != float(delta_fix):
             self._precond = core().Regularizers(param.theta_bar, loops, weight)
         self.set_strengths(delta_fix, delta_cur, objective_fix=objective_fix)
+        self._gpu = None
+        self.device_note = ""   # why use_device("cuda") stayed on the CPU, if it did
+
+    def use_device(self, device: str) -> str:
+        """Evaluate R^fix + R^cur and apply P^-1 on "cpu" or "cuda". Returns the device
+        used: when P^-1 would not fit (GPU_MAX_BYTES, or half the free memory) everything
+        stays on the CPU, with the reason in ``device_note``."""
+        from ..errors import DeviceError, SolveError
+        if device == "cpu":
+            self._gpu, self.device_note = None, ""
+            return "cpu"
+        if device != "cuda":
+            raise SolveError(f"unknown regularizers device {device!r} (cpu or cuda)")
+        need = 8 * (2 * self.param.n_theta) ** 2
+        if need > self.GPU_MAX_BYTES:   # known before asking for a device (the native side says the same)
+            self._gpu = None
+            self.device_note = (f"the preconditioner P^-1 needs {need >> 20} MiB of GPU memory "
+                                f"(limit {self.GPU_MAX_BYTES >> 20} MiB)")
+            return "cpu"
+        from ..sim.cuda import require_cuda
+        require_cuda()
+        try:
+            self._gpu = core().CudaRegularizers(self._native, self._precond, self.GPU_MAX_BYTES)
+        except DeviceError as exc:
+            self._gpu, self.device_note = None, str(exc)
+            return "cpu"
+        self.device_note = ""
+        return "cuda"
+
+    @property
+    def device(self) -> str:
+        return "cpu" if self._gpu is None else "cuda"
 
     def set_strengths(self, delta_fix: float, delta_cur: float, *, objective_fix: float | None = None) -> None:
         """delta_fix and delta_cur shape P; the objective uses objective_fix (default
@@ -57,16 +98,20 @@ class Regularizers:
 
     def evaluate(self, theta):
         """-> (value, {"fix", "cur"}, gradient (n_theta, 2))."""
-        v, (rf, rc), g = self._native.evaluate(np.asarray(theta, dtype=float).reshape(-1, 2))
+        theta = np.ascontiguousarray(theta, dtype=float).reshape(-1, 2)
+        v, (rf, rc), g = (self._native if self._gpu is None else self._gpu).evaluate(theta)
         return v, {"fix": rf, "cur": rc}, g
 
     def apply_preconditioner(self, g) -> np.ndarray:
-        """P^-1 g with P the (constant) Hessian of the regularizers."""
-        return self._precond.apply_preconditioner(np.asarray(g, dtype=float).reshape(-1, 2))
+        """P^-1 g with P the (constant) Hessian of the regularizers (on the GPU: P^-1
+        rebuilt first when P changed)."""
+        g = np.ascontiguousarray(g, dtype=float).reshape(-1, 2)
+        return (self._precond if self._gpu is None else self._gpu).apply_preconditioner(g)
 
     def add_to_preconditioner(self, H) -> None:
         """Add a constant sparse matrix over theta flattened to P (None: remove it).
-        Used for the Gauss-Newton Hessian of R^seam at the base pattern."""
+        Used for the Gauss-Newton Hessian of R^seam at the base pattern. A GPU copy of
+        P^-1 follows (rebuilt at the next apply_preconditioner)."""
         self._extra = H
         if H is None:
             self._precond.set_extra_hessian(np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0))

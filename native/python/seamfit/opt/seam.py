@@ -37,12 +37,32 @@ class SeamLength:
     """R^seam over the boundary parameters theta of a ``Parametrization``.
 
     ``evaluations`` counts the evaluations (never any when delta_seam is 0: callers skip
-    the term, as the costs skip theirs)."""
+    the term, as the costs skip theirs), on either device. ``use_device("cuda")`` moves
+    ``evaluate`` to the GPU; the strength stays in the CPU object, which the GPU copy reads."""
 
     def __init__(self, param, mesh, delta_seam: float):
         self.param = param
         self._native = core().SeamLength(param.theta_bar, seam_segments(mesh, param))
         self.set_strength(delta_seam)
+        self._gpu = None
+        self.device_note = ""   # kept for symmetry with Parametrization and Regularizers
+
+    def use_device(self, device: str) -> str:
+        """Evaluate R^seam on "cpu" or "cuda"; returns the device used."""
+        from ..errors import SolveError
+        if device == "cpu":
+            self._gpu = None
+            return "cpu"
+        if device != "cuda":
+            raise SolveError(f"unknown seam-length device {device!r} (cpu or cuda)")
+        from ..sim.cuda import require_cuda
+        require_cuda()
+        self._gpu = core().CudaSeamLength(self._native)
+        return "cuda"
+
+    @property
+    def device(self) -> str:
+        return "cpu" if self._gpu is None else "cuda"
 
     def set_strength(self, delta_seam: float) -> None:
         self.delta_seam = float(delta_seam)
@@ -66,7 +86,8 @@ class SeamLength:
 
     def evaluate(self, theta):
         """-> (value, gradient (n_theta, 2))."""
-        return self._native.evaluate(np.asarray(theta, dtype=float).reshape(-1, 2))
+        theta = np.ascontiguousarray(theta, dtype=float).reshape(-1, 2)
+        return (self._native if self._gpu is None else self._gpu).evaluate(theta)
 
     def residuals(self, theta) -> np.ndarray:
         """Per segment |a segment| - rho |b segment| (m)."""

@@ -41,6 +41,23 @@ def test_a_base_garment_that_does_not_dress_its_body_is_refused():
               sim_settings=SimSettings(max_iterations=20, polish=False))
 
 
+def test_an_unsettled_base_drape_is_used_only_when_asked_and_never_cached(tmp_path, monkeypatch):
+    """accept_unsettled_base (timing benchmarks of meshes that do not settle) grades from the
+    unsettled drape and says so in the report; the drape is not cached, so a normal grading
+    of the same inputs still refuses it."""
+    monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
+    short = SimSettings(max_iterations=20, polish=False)
+    res = grade(load_pattern(PATTERN), load_body(B0), load_body(B1),
+                GradeSettings(**COARSE, max_outer_iterations=2, checkpoint_every=1, accept_unsettled_base=True),
+                sim_settings=short)
+    bd = res.report["base_drape"]
+    assert bd["converged"] is False and bd["residual"] > 1e-3 and not bd["cached"]
+    assert np.isfinite(res.report["objective_final"])
+    assert not list((tmp_path / "cache").glob("drape/*.npz"))
+    with pytest.raises(SolveError, match="did not settle on the base body"):
+        grade(load_pattern(PATTERN), load_body(B0), load_body(B1), GradeSettings(**COARSE), sim_settings=short)
+
+
 def test_a_target_too_far_for_the_budget_returns_the_best_pattern_marked_not_converged():
     # A target 25 % wider than the base body: no hope of converging in 6 outer iterations.
     wide = load_body(B0)

@@ -36,6 +36,19 @@ B0 = SAMPLES / "bodies" / "women_size06.obj"
 B1 = SAMPLES / "bodies" / "women_size10.obj"
 
 
+# The report's device names of the loop's parts, in the table's words.
+PART_NAMES = (("simulation", "sim, rest state"), ("parametrization", "p(theta)"), ("adjoint", "adjoint, df/dp"),
+              ("costs", "costs"), ("regularizers", "R, P^-1"), ("seam", "R^seam"))
+
+
+def gpu_parts(report: dict):
+    """What of the loop ran on the GPU, from the grading report's `devices`."""
+    if report["device"] != "cuda":
+        return None
+    dev = report.get("devices") or {}
+    return ", ".join(name for key, name in PART_NAMES if dev.get(key) == "cuda")
+
+
 def grade_once(edge_cm: float, device: str, args) -> dict:
     from seamfit.body import load_body
     from seamfit.opt.grade import GradeSettings, grade
@@ -44,7 +57,8 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
 
     settings = GradeSettings(edge_length_cm=edge_cm, max_outer_iterations=args.max_iterations,
                              sdf_spacing=args.sdf_spacing, sdf_region=args.sdf_region,
-                             adjoint_forcing=args.adjoint_forcing,
+                             adjoint_forcing=args.adjoint_forcing, adjoint_coarse=args.adjoint_coarse,
+                             accept_unsettled_base=args.accept_unsettled_base,
                              checkpoint_every=args.checkpoint_every, device=device,
                              evaluate_base_pattern=False, time_budget_s=args.time_budget)
     sim_settings = SimSettings(max_seconds=args.stage_seconds)
@@ -53,7 +67,7 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
     r = res.report
     return {"edge_length_cm": edge_cm, "sdf_spacing_mm": 1000 * args.sdf_spacing, "device": r["device"],
             "sdf": r.get("sdf"),
-            "adjoint_forcing": args.adjoint_forcing,
+            "adjoint_forcing": args.adjoint_forcing, "adjoint_coarse": args.adjoint_coarse,
             "triangles": r["mesh"]["triangles"],
             "vertices": r["mesh"]["vertices"], "wall_s": time.perf_counter() - t0,
             "seconds_total": r["seconds_total"], "seconds_precompute": r["seconds_precompute"],
@@ -63,7 +77,7 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
             "objective_initial": r["objective_initial"], "objective_final": r["objective_final"],
             "objective_reduction": r["objective_reduction"], "converged": r["converged"],
             "message": r["message"], "drape": r["drape"], "adjoint": r.get("adjoint"),
-            "gpu_parts": "sim, rest state, adjoint, df/dp, costs" if r["device"] == "cuda" else None,
+            "devices": r.get("devices"), "gpu_parts": gpu_parts(r),
             # the exact checkpoints (accepted or not) against loop time: how soon a reduction is reached
             "exact_history": [[t, f] for t, f, e in zip(res.history["seconds"], res.history["objective"],
                                                          res.history["exact"]) if e],
@@ -139,7 +153,8 @@ def cmd_report(args) -> int:
             f"| {r['triangles']:,} | {r['device']}{' (' + r['gpu_parts'] + ')' if r.get('gpu_parts') else ''} | "
             f"{r.get('sdf_spacing_mm', 2.5):g} | "
             f"{'-' if forcing is None else format(forcing, 'g')} | "
-            f"{'cached' if bd.get('cached') else format(bd['seconds'], '.1f')} | "
+            f"{'cached' if bd.get('cached') else format(bd['seconds'], '.1f')}"
+            f"{' (unsettled, residual ' + format(bd['residual'], '.2g') + ')' if bd.get('converged') is False else ''} | "
             f"{r['seconds_loop']:.1f} | {r['seconds_per_iteration']:.3f} | {sp['simulation']:.1f} | "
             f"{sp['gradient']:.1f} | {sp['factorizations'] + sp.get('adjoint_solves', 0.0):.1f} | {minres} | "
             f"{sp['objective']:.1f} | {r['outer_iterations']} / "
@@ -345,6 +360,10 @@ def main(argv=None) -> int:
                         "unless its grid is over the builder's node limit)")
     r.add_argument("--adjoint-forcing", type=float, default=0.0,
                    help="GPU adjoint tolerance at inexact states: max(1e-8, F * residual)")
+    r.add_argument("--accept-unsettled-base", action="store_true",
+                   help="time the grading even when the base drape does not settle (its row says so)")
+    r.add_argument("--adjoint-coarse", type=int, default=0,
+                   help="aggregates of the GPU adjoint's two-level preconditioner (0: block Jacobi alone)")
     r.set_defaults(func=cmd_run)
     c = sub.add_parser("curves")
     c.add_argument("--out", type=Path, required=True)

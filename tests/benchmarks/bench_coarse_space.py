@@ -97,9 +97,10 @@ def cmd_report(args) -> int:
              f"- {m['device']}; pencil skirt at {m['triangles']:,} triangles ({m['vertices']:,} vertices); "
              f"MINRES to {m['tolerance']:g}, budget {m['max_iterations']:,} iterations. "
              f"Command: `bench_coarse_space.py {m['command']}`",
-             f"- States: the base pattern's exact drape on the target (relative residual "
-             f"{d['states']['exact']:.3g}), and a 2 mm preconditioned step followed by 16 simulator "
-             f"iterations (residual {d['states']['inexact']:.3g}).", "",
+             f"- States: `exact`, what the exact solve of the base pattern on the target hands back "
+             f"(relative residual {d['states']['exact']:.3g}: at 60K it stops at its iteration budget), "
+             f"and `inexact`, a 2 mm preconditioned step followed by 16 simulator iterations (residual "
+             f"{d['states']['inexact']:.3g}).", "",
              "| state | aggregates | coarse unknowns | MINRES iterations | converged | solve (s) | coarse matrix (s, CPU) "
              "| gradient against block Jacobi |",
              "|---|---:|---:|---:|---|---:|---:|---:|"]

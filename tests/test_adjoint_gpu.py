@@ -15,7 +15,7 @@ import pytest
 
 from seamfit._native import core
 from seamfit.errors import DeviceError, SolveError
-from seamfit.opt.adjoint import AdjointSolver
+from seamfit.opt.adjoint import GPU_EQUILIBRIUM_BUDGET_FACTOR, AdjointSolver
 
 GPU = core().cuda_device_count() > 0
 SAMPLES = Path(__file__).resolve().parents[1] / "sample_files"
@@ -112,10 +112,30 @@ def test_gpu_adjoint_out_of_budget_falls_back_to_the_direct_solve(state):
     g_cpu = cpu.pattern_gradient(x, gx, gp)
     g_gpu = gpu.pattern_gradient(x, gx, gp)
     assert "iteration budget" in gpu.last_report["message"] and not gpu.last_report["converged"]
-    assert gpu.last_report["iterations"] == 3
-    assert gpu.gpu_fallbacks == 1
+    # 3 iterations, then 9 more from there (GPU_EQUILIBRIUM_BUDGET_FACTOR budgets in all)
+    assert gpu.last_report["iterations"] == 3 * (GPU_EQUILIBRIUM_BUDGET_FACTOR - 1)
+    assert gpu.extended == 1 and gpu.gpu_fallbacks == 1
     assert np.allclose(g_gpu, g_cpu, rtol=1e-12, atol=1e-12 * np.abs(g_cpu).max())
     assert gpu.stats()["gpu_fallbacks"] == 1
+
+
+def test_an_equilibrium_solve_goes_on_past_the_budget_before_the_cpu(state):
+    """At an equilibrium state a solve stopped by the budget continues from its iterate
+    (no CPU factorization when the longer run converges); at an inexact state it does not."""
+    ctx, x, gx, gp = state
+    probe = AdjointSolver(ctx.sim, device="cuda")
+    probe.pattern_gradient(x, gx, gp)
+    n = probe.last_report["iterations"]
+    assert n >= 20
+    budget = (n + GPU_EQUILIBRIUM_BUDGET_FACTOR - 1) // (GPU_EQUILIBRIUM_BUDGET_FACTOR - 1)
+    gpu = AdjointSolver(ctx.sim, device="cuda", gpu_max_iterations=budget,
+                        equilibrium_tolerance=10 * ctx.exact_tolerance)
+    g = gpu.pattern_gradient(x, gx, gp, residual=0.0)
+    assert gpu.extended == 1 and gpu.gpu_fallbacks == 0 and gpu.last_report["converged"]
+    g_ref = probe.pattern_gradient(x, gx, gp)
+    assert np.linalg.norm(g - g_ref) <= 1e-6 * np.linalg.norm(g_ref)
+    gpu.pattern_gradient(x, gx, gp, residual=1.0)   # inexact: kept at the budget
+    assert gpu.extended == 1 and gpu.truncated <= 1 and gpu.gpu_fallbacks == 0
 
 
 def test_inexact_forcing_relaxes_the_tolerance_at_inexact_states_only(state):
@@ -205,4 +225,5 @@ if not GPU:
     del (test_gpu_adjoint_matches_the_direct_solve, test_gpu_adjoint_warm_start_and_determinism,
          test_persistent_kernel_and_kernel_graph_agree, test_gpu_adjoint_out_of_budget_falls_back_to_the_direct_solve,
          test_inexact_forcing_relaxes_the_tolerance_at_inexact_states_only,
-         test_coarse_space_solves_the_same_system_in_fewer_iterations, test_set_coarse_checks_its_arrays)
+         test_coarse_space_solves_the_same_system_in_fewer_iterations, test_set_coarse_checks_its_arrays,
+         test_an_equilibrium_solve_goes_on_past_the_budget_before_the_cpu)

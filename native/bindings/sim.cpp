@@ -102,6 +102,7 @@ void bind_sim(py::module_& m) {
       .def_readwrite("rho", &SolveSettings::rho, "Chebyshev spectral radius (<= 0: automatic)")
       .def_readwrite("alpha", &SolveSettings::alpha)
       .def_readwrite("warmup", &SolveSettings::warmup)
+      .def_readwrite("rho_max", &SolveSettings::rho_max)
       .def_readwrite("check_every", &SolveSettings::check_every)
       .def_readwrite("progress_every", &SolveSettings::progress_every)
       .def_readwrite("history_every", &SolveSettings::history_every)

@@ -776,6 +776,7 @@ sim::SolveReport SimGpu::solve(double* x, const sim::SolveSettings& st, const si
   // The residual history keeps its first 2^17 entries (1.3M iterations at the default interval).
   c.hist_cap = st.history_every > 0 ? std::min(st.max_iterations / st.history_every + 2, 1 << 17) : 0;
   c.auto_rho = !(st.rho > 0);
+  c.rho_max = st.rho_max;
   c.rho = c.auto_rho ? 0.0 : std::min(st.rho, 0.99999);
   c.alpha = std::min(std::max(st.alpha, 1e-3), 1.0);
   c.mode = kInit;

@@ -208,6 +208,7 @@ struct Ctrl {
   // Settings.
   double tol = 0, weight_norm = 1;
   int max_it = 0, warmup = 16, check = 8, history_every = 0, hist_cap = 0, auto_rho = 1;
+  double rho_max = 0.9999995;  // the adapted rho's upper bound (SolveSettings::rho_max)
   // State.
   int it = 0, k = 0, rises = 0, done = 0, status = kRunning, mode = kInit, save_ck = 0, cur = 0;
   double E = 0, Eck = 0, rho = 0, alpha = 0.9, omega = 1, res = 0;
@@ -265,7 +266,7 @@ SF_HD void ctrl_update(Ctrl& c, const double sums[kSums], int new_cur, double* u
       c.save_ck = 1;  // the next slot copies the current state to the checkpoint
       c.Eck = E;
       c.rises = 0;
-      if (c.auto_rho && c.k > c.warmup) c.rho = ctrl_min(1.0 - 0.9 * (1.0 - c.rho), 0.99995);
+      if (c.auto_rho && c.k > c.warmup) c.rho = ctrl_min(1.0 - 0.9 * (1.0 - c.rho), c.rho_max);
     }
     ++c.it;
   } else if (c.mode == kFinalRestore) {

@@ -61,13 +61,15 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
                              accept_unsettled_base=args.accept_unsettled_base,
                              checkpoint_every=args.checkpoint_every, device=device,
                              evaluate_base_pattern=False, time_budget_s=args.time_budget)
-    sim_settings = SimSettings(max_seconds=args.stage_seconds)
+    sim_settings = SimSettings(max_seconds=args.stage_seconds,
+                               **({"rho_max": args.rho_max} if args.rho_max else {}))
     t0 = time.perf_counter()
     res = grade(load_pattern(PATTERN), load_body(B0), load_body(B1), settings, sim_settings=sim_settings)
     r = res.report
     return {"edge_length_cm": edge_cm, "sdf_spacing_mm": 1000 * args.sdf_spacing, "device": r["device"],
             "sdf": r.get("sdf"),
             "adjoint_forcing": args.adjoint_forcing, "adjoint_coarse": args.adjoint_coarse,
+            "rho_max": sim_settings.rho_max,
             "triangles": r["mesh"]["triangles"],
             "vertices": r["mesh"]["vertices"], "wall_s": time.perf_counter() - t0,
             "seconds_total": r["seconds_total"], "seconds_precompute": r["seconds_precompute"],
@@ -362,6 +364,8 @@ def main(argv=None) -> int:
                    help="GPU adjoint tolerance at inexact states: max(1e-8, F * residual)")
     r.add_argument("--accept-unsettled-base", action="store_true",
                    help="time the grading even when the base drape does not settle (its row says so)")
+    r.add_argument("--rho-max", type=float, default=0.0,
+                   help="upper bound of the Chebyshev rho (0: the simulator's default)")
     r.add_argument("--adjoint-coarse", type=int, default=0,
                    help="aggregates of the GPU adjoint's two-level preconditioner (0: block Jacobi alone)")
     r.set_defaults(func=cmd_run)

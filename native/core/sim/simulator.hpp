@@ -61,6 +61,7 @@ struct SolveSettings {
   double tolerance = 1e-2;   // on the relative residual |f| / |m g|
   double max_seconds = 0;    // 0: no limit
   double rho = 0;            // Chebyshev spectral radius; <= 0: estimate and adapt
+  double rho_max = 0.9999995;  // the adapted rho's upper bound (docs/simulator.md)
   double alpha = 0.9;        // Jacobi step length
   int warmup = 16;           // plain Jacobi iterations after each (re)start
   int check_every = 8;       // energy check / checkpoint interval (Chebyshev)

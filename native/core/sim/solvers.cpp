@@ -244,7 +244,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
         rises = 0;
         // Still descending: widen the Chebyshev interval towards 1, and let a
         // step length cut by earlier rises grow back.
-        if (auto_rho && k > warmup) rho = std::min(1.0 - 0.9 * (1.0 - rho), 0.99995);
+        if (auto_rho && k > warmup) rho = std::min(1.0 - 0.9 * (1.0 - rho), st.rho_max);
         if (++good_checks >= 16) {
           alpha = std::min(1.25 * alpha, alpha0);
           economy = true;

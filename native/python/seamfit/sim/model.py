@@ -74,6 +74,7 @@ class SimSettings:
     barrier_interpolation: str = "cubic"  # "cubic" (C2 B-spline) or "trilinear" SDF reading
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
     rho: float = 0.0                   # Chebyshev spectral radius, 0 = automatic
+    rho_max: float = 0.9999995         # the automatic rho's upper bound (docs/simulator.md)
     alpha: float = 0.9                 # Jacobi step length
     warmup: int = 16
     check_every: int = 8
@@ -110,6 +111,8 @@ class SimSettings:
             raise SolveError("max_iterations must be >= 0")
         if self.device not in ("cpu", "cuda"):
             raise SolveError(f"unknown device {self.device!r} (cpu or cuda)")
+        if not (0 < self.rho_max < 1):
+            raise SolveError(f"rho_max must lie in (0, 1), got {self.rho_max}")
 
 
 @dataclass
@@ -330,6 +333,7 @@ class Simulator:
         st.max_iterations = int(max_iterations)
         st.max_seconds = float(s.max_seconds if max_seconds is None else max_seconds)
         st.rho = float(s.rho)
+        st.rho_max = float(s.rho_max)
         st.alpha = float(s.alpha)
         st.warmup = int(s.warmup)
         st.check_every = int(s.check_every)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 
 def grid_panel(width_cm: float, height_cm: float, nu: int, nv: int, jitter: float = 0.0, seed: int = 0):
@@ -160,3 +161,14 @@ def hourglass_sdf(spacing=0.01):
     r = 0.13 + 0.02 * np.cos(np.pi * (z - 0.1) / 0.35)
     r = np.where(z < 0.1, 0.15 + 0.25 * (0.1 - z) ** 2 / 0.16, np.where(z > 0.45, 0.11, r))
     return revolution_sdf(z, r, spacing=spacing, pad=0.12)
+
+
+@pytest.fixture
+def fresh_sdf_cache(tmp_path, monkeypatch):
+    """SDFs built afresh: a private disk cache and an empty memory cache around the test."""
+    from seamfit.body import sdf as sdf_mod
+
+    monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
+    sdf_mod.clear_memory_cache()
+    yield
+    sdf_mod.clear_memory_cache()

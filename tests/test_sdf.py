@@ -26,6 +26,8 @@ from seamfit.body import sdf as sdf_mod
 from seamfit.errors import BodyError
 from seamfit._native import core
 
+from sim_helpers import fresh_sdf_cache  # noqa: F401 (a fixture)
+
 BODIES = Path(__file__).resolve().parents[1] / "sample_files" / "bodies"
 H = 0.005          # grid spacing for the body tests (the default 2.5 mm is benchmarked)
 NODE_TOL = 5e-4    # metres: propagated node values vs exact distances (measured max ~0.25 mm)
@@ -165,12 +167,8 @@ def icosphere(radius, subdiv):
 
 # ----------------------------------------------------------------------------- fixtures
 
-@pytest.fixture(autouse=True)
-def _cache_dir(tmp_path, monkeypatch):
-    monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
-    sdf_mod.clear_memory_cache()
-    yield
-    sdf_mod.clear_memory_cache()
+# Every test builds its fields afresh (sim_helpers.fresh_sdf_cache).
+pytestmark = pytest.mark.usefixtures("fresh_sdf_cache")
 
 
 @pytest.fixture(scope="module")

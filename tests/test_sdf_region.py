@@ -19,6 +19,8 @@ from seamfit.opt import prepare as prep
 from seamfit.opt import sdf_region as reg
 from seamfit.opt.grade import GradeSettings
 from seamfit.pattern import load_pattern
+
+from sim_helpers import fresh_sdf_cache  # noqa: F401 (a fixture)
 from test_sdf import BAND_TOL, NODE_TOL
 
 SAMPLES = Path(__file__).resolve().parents[1] / "sample_files"
@@ -31,12 +33,8 @@ BAND = (0.60, 0.90)    # a garment's height band (m) for the field tests
 MARGIN = 0.05
 
 
-@pytest.fixture(autouse=True)
-def _cache_dir(tmp_path, monkeypatch):
-    monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
-    sdf_mod.clear_memory_cache()
-    yield
-    sdf_mod.clear_memory_cache()
+# Every test builds its fields afresh (sim_helpers.fresh_sdf_cache).
+pytestmark = pytest.mark.usefixtures("fresh_sdf_cache")
 
 
 @pytest.fixture(scope="module")

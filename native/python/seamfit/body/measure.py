@@ -68,8 +68,6 @@ class _Slicer:
         F = self.F[cand]
         zz = self.V[F, 2]
         above = zz > z  # a vertex exactly at z counts as below: no degenerate cuts
-        segs_a, segs_b = [], []
-        pts = {}
         ends = []
         for e0, e1 in ((0, 1), (1, 2), (2, 0)):
             cut = above[:, e0] != above[:, e1]

@@ -208,7 +208,7 @@ struct Ctrl {
   // Settings.
   double tol = 0, weight_norm = 1;
   int max_it = 0, warmup = 16, check = 8, history_every = 0, hist_cap = 0, auto_rho = 1;
-  double rho_max = 0.9999995;  // the adapted rho's upper bound (SolveSettings::rho_max)
+  double rho_max = 0;  // the adapted rho's upper bound: SolveSettings::rho_max, set by the solve
   // State.
   int it = 0, k = 0, rises = 0, done = 0, status = kRunning, mode = kInit, save_ck = 0, cur = 0;
   double E = 0, Eck = 0, rho = 0, alpha = 0.9, omega = 1, res = 0;

@@ -4,6 +4,7 @@
 
 namespace seamfit::bindings {
 void bind_device(pybind11::module_& m);
+void bind_device_array(pybind11::module_& m);
 void bind_body(pybind11::module_& m);
 void bind_sim(pybind11::module_& m);
 void bind_opt(pybind11::module_& m);

@@ -18,6 +18,7 @@
 #include "dfdp_gpu.hpp"
 #include "newton_gpu.hpp"
 #include "pattern_gpu.hpp"
+#include "py_device_array.hpp"
 #include "sim_gpu.hpp"
 #include "sim_report.hpp"
 #endif
@@ -65,6 +66,42 @@ py::array_t<double> pattern_map(const DArr& in, int rows_in, int rows_out, const
     fn(reinterpret_cast<const seamfit::Vec2*>(in.data()), op);
   }
   return out;
+}
+
+using seamfit::cuda::DeviceArray;
+
+void require_x(const SimGpu& g, const DeviceArray& x, const char* name = "x") {
+  require_shape(x, g.simulator().n_vertices(), 3, name);
+}
+
+// As require_outside, for a state in device memory (the check runs there).
+void require_outside_device(SimGpu& g, const DeviceArray& x) {
+  const int v = g.first_unsafe_device(x.data(), 0.0);
+  if (v >= 0)
+    throw SimError("vertex " + std::to_string(v) + " is inside the body or not finite: the barrier is undefined "
+                   "there; call project_outside first");
+}
+
+py::dict adjoint_report_dict(const seamfit::cuda::AdjointReport& r) {
+  py::dict d;
+  d["converged"] = r.converged;
+  d["status"] = r.status;
+  d["iterations"] = r.iterations;
+  d["residual"] = r.residual;
+  d["estimate"] = r.estimate;
+  d["shift"] = r.shift;
+  d["seconds"] = r.seconds;
+  d["message"] = r.message;
+  return d;
+}
+
+seamfit::cuda::AdjointSettings adjoint_settings(double tolerance, int max_iterations, int batch, bool persistent) {
+  seamfit::cuda::AdjointSettings st;
+  st.tolerance = tolerance;
+  st.max_iterations = max_iterations;
+  st.batch = batch;
+  st.persistent = persistent;
+  return st;
 }
 
 // The keys of Simulator.solve's report (sim_report.hpp), plus the device.
@@ -192,6 +229,26 @@ void bind_cuda_sim(py::module_& m) {
              });
            },
            py::arg("x"), py::arg("settings"), py::arg("progress") = py::none())
+      .def("solve_device",
+           [](SimGpu& g, DeviceArray& x, const SolveSettings& st, py::object progress) {
+             require_x(g, x);
+             const SolveReport rep = with_progress(progress, [&](const seamfit::sim::ProgressFn& fn,
+                                                                 const std::atomic<bool>* cancel) {
+               return g.solve_device(x.data(), st, fn, cancel);
+             });
+             return report_dict(rep, g);
+           },
+           py::arg("x"), py::arg("settings"), py::arg("progress") = py::none(),
+           "The solve with x a DeviceArray (n, 3), updated in place; returns the report.")
+      .def("set_pattern_device",
+           [](SimGpu& g, const DeviceArray& p) {
+             require_shape(p, g.simulator().n_vertices(), 2, "p");
+             py::gil_scoped_release nogil;
+             g.set_pattern_device(p.data());
+           },
+           py::arg("p"),
+           "A new pattern (DeviceArray (n, 2)) and its rest state on the device alone; the CPU simulator's "
+           "next set_pattern replaces it.")
       .def("newton",
            [](SimGpu& g, Simulator& sim, seamfit::cuda::AdjointGpu& lin, DArr x0, const SolveSettings& st,
               py::object progress, int max_linear_iterations) {
@@ -239,6 +296,15 @@ void bind_cuda_sim(py::module_& m) {
            },
            py::arg("gpu"), py::arg("x"), py::arg("psd") = false, py::arg("shift") = 1e-8,
            "Store H at x (exact or PSD-projected), shifted by shift * mean|diag H|, and its preconditioner.")
+      .def("set_state_device",
+           [](AdjointGpu& a, SimGpu& g, const DeviceArray& x, bool psd, double shift) {
+             require_x(g, x);
+             require_outside_device(g, x);
+             py::gil_scoped_release nogil;
+             a.set_state_device(x.data(), psd, shift);
+           },
+           py::arg("gpu"), py::arg("x"), py::arg("psd") = false, py::arg("shift") = 1e-8,
+           "set_state with x a DeviceArray.")
       .def("set_coarse",
            [](AdjointGpu& a, SimGpu& g, py::array_t<int32_t, py::array::c_style | py::array::forcecast> aggregate,
               int n_agg, DArr coarse_inverse) {
@@ -270,30 +336,34 @@ void bind_cuda_sim(py::module_& m) {
                require_x(g, l0);
                std::copy(l0.data(), l0.data() + 3 * size_t(n), lp);
              }
-             seamfit::cuda::AdjointSettings st;
-             st.tolerance = tolerance;
-             st.max_iterations = max_iterations;
-             st.batch = batch;
-             st.persistent = persistent;
+             const seamfit::cuda::AdjointSettings st = adjoint_settings(tolerance, max_iterations, batch, persistent);
              seamfit::cuda::AdjointReport r;
              {
                py::gil_scoped_release nogil;
                r = a.solve(rhs.data(), lp, st);
              }
-             py::dict d;
-             d["converged"] = r.converged;
-             d["status"] = r.status;
-             d["iterations"] = r.iterations;
-             d["residual"] = r.residual;
-             d["estimate"] = r.estimate;
-             d["shift"] = r.shift;
-             d["seconds"] = r.seconds;
-             d["message"] = r.message;
-             return py::make_tuple(lam, d);
+             return py::make_tuple(lam, adjoint_report_dict(r));
            },
            py::arg("gpu"), py::arg("g"), py::arg("lam0") = py::none(), py::arg("tolerance") = 1e-6,
            py::arg("max_iterations") = 20000, py::arg("batch") = 32, py::arg("persistent") = true,
-           "Solve H lam = g from lam0 (zeros if None); returns (lam, report).");
+           "Solve H lam = g from lam0 (zeros if None); returns (lam, report).")
+      .def("solve_device",
+           [](AdjointGpu& a, SimGpu& g, const DeviceArray& rhs, DeviceArray& lam, double tolerance,
+              int max_iterations, int batch, bool persistent) {
+             require_x(g, rhs, "g");
+             require_x(g, lam, "lam");
+             const seamfit::cuda::AdjointSettings st = adjoint_settings(tolerance, max_iterations, batch, persistent);
+             seamfit::cuda::AdjointReport r;
+             {
+               py::gil_scoped_release nogil;
+               r = a.solve_device(rhs.data(), lam.data(), st);
+             }
+             return adjoint_report_dict(r);
+           },
+           py::arg("gpu"), py::arg("g"), py::arg("lam"), py::arg("tolerance") = 1e-6,
+           py::arg("max_iterations") = 20000, py::arg("batch") = 32, py::arg("persistent") = true,
+           "Solve H lam = g with DeviceArrays, lam the start on entry and the solution on return; returns the "
+           "report.");
 
   using seamfit::cuda::DfdpGpu;
   py::class_<DfdpGpu>(m, "CudaDfdp",
@@ -315,7 +385,19 @@ void bind_cuda_sim(py::module_& m) {
              return out;
            },
            py::arg("gpu"), py::arg("x"), py::arg("lam"),
-           "(df/dp)^T lam (n, 2) at x for the simulator's current pattern and parameters.");
+           "(df/dp)^T lam (n, 2) at x for the simulator's current pattern and parameters.")
+      .def("apply_device",
+           [](DfdpGpu& d, SimGpu& g, const DeviceArray& x, const DeviceArray& lam, DeviceArray& out) {
+             g.sync();  // as apply: a pattern set on the device alone stays
+             require_x(g, x);
+             require_x(g, lam, "lam");
+             require_shape(out, g.simulator().n_vertices(), 2, "out");
+             require_outside_device(g, x);
+             py::gil_scoped_release nogil;
+             d.apply_device(x.data(), lam.data(), out.data());
+           },
+           py::arg("gpu"), py::arg("x"), py::arg("lam"), py::arg("out"),
+           "out = (df/dp)^T lam with DeviceArrays.");
 
   using seamfit::cuda::PatternGpu;
   py::class_<PatternGpu>(m, "CudaPattern",
@@ -334,6 +416,22 @@ void bind_cuda_sim(py::module_& m) {
                                 [&](const seamfit::Vec2* in, seamfit::Vec2* out) { g.adjoint(in, out); });
            },
            py::arg("parametrization"), py::arg("g"))
+      .def("pattern_device",
+           [](PatternGpu& g, const seamfit::opt::Parametrization& p, const DeviceArray& theta, DeviceArray& out) {
+             require_shape(theta, p.n_boundary(), 2, "theta");
+             require_shape(out, p.n_vertices(), 2, "p");
+             py::gil_scoped_release nogil;
+             g.pattern_device(theta.data(), out.data());
+           },
+           py::arg("parametrization"), py::arg("theta"), py::arg("out"), "out = p(theta), DeviceArrays")
+      .def("adjoint_device",
+           [](PatternGpu& g, const seamfit::opt::Parametrization& p, const DeviceArray& grad, DeviceArray& out) {
+             require_shape(grad, p.n_vertices(), 2, "g");
+             require_shape(out, p.n_boundary(), 2, "out");
+             py::gil_scoped_release nogil;
+             g.adjoint_device(grad.data(), out.data());
+           },
+           py::arg("parametrization"), py::arg("g"), py::arg("out"), "out = (dp/dtheta)^T g, DeviceArrays")
       .def_property_readonly("device_bytes", &PatternGpu::device_bytes);
 
   using seamfit::cuda::CostSetGpu;
@@ -361,7 +459,27 @@ void bind_cuda_sim(py::module_& m) {
              }
              return py::make_tuple(v, cost_terms_dict(t), gx, gp);
            },
-           py::arg("cost_set"), py::arg("x"), py::arg("p"), "-> (value, terms, grad_x, grad_p), as CostSet.evaluate");
+           py::arg("cost_set"), py::arg("x"), py::arg("p"), "-> (value, terms, grad_x, grad_p), as CostSet.evaluate")
+      .def("evaluate_device",
+           [](CostSetGpu& g, PyCostSet& c, const DeviceArray& x, const DeviceArray& p, DeviceArray& gx,
+              DeviceArray& gp) {
+             const int n = c.cs->n_vertices();
+             require_shape(x, n, 3, "x");
+             require_shape(p, n, 2, "p");
+             require_shape(gx, n, 3, "grad_x");
+             require_shape(gp, n, 2, "grad_p");
+             std::array<double, seamfit::opt::kNumCostTerms> t{};
+             double v;
+             try {
+               py::gil_scoped_release nogil;
+               v = g.evaluate_device(x.data(), p.data(), gx.data(), gp.data(), &t);
+             } catch (const std::logic_error& e) {
+               throw py::value_error(e.what());
+             }
+             return py::make_tuple(v, cost_terms_dict(t));
+           },
+           py::arg("cost_set"), py::arg("x"), py::arg("p"), py::arg("grad_x"), py::arg("grad_p"),
+           "-> (value, terms); the gradients into grad_x and grad_p (DeviceArrays)");
 #else
   (void)m;
 #endif

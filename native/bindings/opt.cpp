@@ -18,6 +18,7 @@
 #include "opt/seam_length.hpp"
 #include "opt/transfer.hpp"
 #ifdef SEAMFIT_WITH_CUDA
+#include "py_device_array.hpp"
 #include "regularizers_gpu.hpp"
 #endif
 
@@ -290,6 +291,22 @@ void bind_opt(py::module_& m) {
              }
              return out;
            }, py::arg("g"), "P^-1 g")
+      .def("evaluate_device", [](RegularizersGpu& g, const cuda::DeviceArray& theta, cuda::DeviceArray& grad) {
+             require_shape(theta, g.n_theta(), 2, "theta");
+             require_shape(grad, g.n_theta(), 2, "grad");
+             std::array<double, 2> t{};
+             const double v = g.evaluate_device(theta.data(), grad.data(), &t);
+             return py::make_tuple(v, py::make_tuple(t[0], t[1]));
+           }, py::arg("theta"), py::arg("grad"), "-> (value, (R_fix, R_cur)); the gradient into grad (DeviceArrays)")
+      .def("apply_preconditioner_device", [](RegularizersGpu& g, const cuda::DeviceArray& grad, cuda::DeviceArray& out) {
+             require_shape(grad, g.n_theta(), 2, "g");
+             require_shape(out, g.n_theta(), 2, "out");
+             try {
+               g.apply_preconditioner_device(grad.data(), out.data());
+             } catch (const std::invalid_argument& e) {
+               throw py::value_error(e.what());
+             }
+           }, py::arg("g"), py::arg("out"), "out = P^-1 g (DeviceArrays)")
       .def_property_readonly("device_bytes", &RegularizersGpu::device_bytes)
       .def_property_readonly("inverse_builds", &RegularizersGpu::inverse_builds);
 
@@ -302,7 +319,12 @@ void bind_opt(py::module_& m) {
              DArr grad = new_array(g.n_theta(), 2);
              const double v = g.evaluate(as<Vec2>(theta), as_mut<Vec2>(grad));
              return py::make_tuple(v, grad);
-           }, py::arg("theta"), "-> (value, gradient), as SeamLength.evaluate");
+           }, py::arg("theta"), "-> (value, gradient), as SeamLength.evaluate")
+      .def("evaluate_device", [](SeamLengthGpu& g, const cuda::DeviceArray& theta, cuda::DeviceArray& grad) {
+             require_shape(theta, g.n_theta(), 2, "theta");
+             require_shape(grad, g.n_theta(), 2, "grad");
+             return g.evaluate_device(theta.data(), grad.data());
+           }, py::arg("theta"), py::arg("grad"), "-> value; the gradient into grad (DeviceArrays)");
 #endif
 
   py::class_<PyCostSet>(m, "CostSet", "Fitting costs (Eq. 11-16) on the CPU.")

@@ -548,8 +548,9 @@ AdjointGpu::~AdjointGpu() = default;
 
 void AdjointGpu::set_state(const double* x, bool psd, double shift_rel) {
   Impl& I = *impl_;
+  // Host or device memory: the runtime tells them apart (unified addressing).
   if (I.gpu->simulator().arrays().n != I.n) throw CudaError("the simulator's topology changed under its adjoint");
-  SF_CUDA(cudaMemcpyAsync(I.x.p, x, 3 * size_t(I.n) * sizeof(double), cudaMemcpyHostToDevice, I.stream));
+  SF_CUDA(cudaMemcpyAsync(I.x.p, x, 3 * size_t(I.n) * sizeof(double), cudaMemcpyDefault, I.stream));
   const Vecs a = I.vecs();
   const int nbs = (I.n_springs + I.block - 1) / I.block;
   I.with_model([&](const auto& m) {
@@ -565,6 +566,8 @@ void AdjointGpu::set_state(const double* x, bool psd, double shift_rel) {
   SF_CUDA(cudaStreamSynchronize(I.stream));
   I.have_state = true;
 }
+
+void AdjointGpu::set_state_device(const double* d_x, bool psd, double shift_rel) { set_state(d_x, psd, shift_rel); }
 
 void AdjointGpu::set_coarse(const int32_t* aggregate, int n_agg, const double* coarse_inverse) {
   Impl& I = *impl_;
@@ -611,11 +614,25 @@ int AdjointGpu::coarse_size() const { return 3 * impl_->n_agg; }
 
 AdjointReport AdjointGpu::solve(const double* g, double* lam, const AdjointSettings& s) {
   Impl& I = *impl_;
-  if (!I.have_state) throw CudaError("AdjointGpu::solve called before set_state");
   const auto t0 = std::chrono::steady_clock::now();
   const size_t n3 = 3 * size_t(I.n) * sizeof(double);
-  SF_CUDA(cudaMemcpyAsync(I.g.p, g, n3, cudaMemcpyHostToDevice, I.stream));
-  SF_CUDA(cudaMemcpyAsync(I.lam.p, lam, n3, cudaMemcpyHostToDevice, I.stream));
+  if (!I.have_state) throw CudaError("AdjointGpu::solve called before set_state");
+  // Into the buffers the captured graph reads, from host or device memory (device to
+  // device: microseconds).
+  SF_CUDA(cudaMemcpyAsync(I.g.p, g, n3, cudaMemcpyDefault, I.stream));
+  SF_CUDA(cudaMemcpyAsync(I.lam.p, lam, n3, cudaMemcpyDefault, I.stream));
+  AdjointReport r = minres(s, t0);
+  SF_CUDA(cudaMemcpyAsync(lam, I.lam.p, n3, cudaMemcpyDefault, I.stream));
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+  return r;
+}
+
+AdjointReport AdjointGpu::solve_device(const double* d_g, double* d_lam, const AdjointSettings& s) {
+  return solve(d_g, d_lam, s);
+}
+
+AdjointReport AdjointGpu::minres(const AdjointSettings& s, std::chrono::steady_clock::time_point t0) {
+  Impl& I = *impl_;
   const Vecs a = I.vecs();
   I.with_model([&](const auto& m) {
     using M = std::decay_t<decltype(m)>;
@@ -644,7 +661,6 @@ AdjointReport AdjointGpu::solve(const double* g, double* lam, const AdjointSetti
   });
   k_residual_sum<<<1, kRedThreads, 0, I.stream>>>(a, I.nb);
   SF_CUDA(cudaGetLastError());
-  SF_CUDA(cudaMemcpyAsync(lam, I.lam.p, n3, cudaMemcpyDeviceToHost, I.stream));
   const MinresState fin = I.read_state();
 
   AdjointReport r;

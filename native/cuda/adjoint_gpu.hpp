@@ -9,6 +9,7 @@
 // per iteration, or (where cooperative launch is not available, or asked for)
 // a CUDA graph of four kernels per iteration. Host-only interface: no CUDA types.
 #pragma once
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -54,10 +55,15 @@ class AdjointGpu {
   // Solves H lam = g (3n); lam holds the start on entry (a warm start; zeros
   // for none) and the solution on return.
   AdjointReport solve(const double* g, double* lam, const AdjointSettings& s);
+  // set_state and solve take host or device pointers alike; these names say the latter
+  // (the search's state stays in device memory).
+  void set_state_device(const double* d_x, bool psd, double shift_rel);
+  AdjointReport solve_device(const double* d_g, double* d_lam, const AdjointSettings& s);
 
   struct Impl;
 
  private:
+  AdjointReport minres(const AdjointSettings& s, std::chrono::steady_clock::time_point t0);  // from the uploaded g, lam
   std::unique_ptr<Impl> impl_;
 };
 

@@ -138,6 +138,8 @@ CostSetGpu::CostSetGpu(opt::CostSet& cs) : impl_(new Impl) {
   I.slot_hx.reserve(4 * nh * sizeof(Vec3));
   I.gx.reserve(n * sizeof(Vec3));
   I.gp.reserve(n * sizeof(Vec2));
+  // The block partials of all four terms at once: no allocation on a later call.
+  I.part.reserve(size_t(2 * blocks(v.n) + blocks(v.n_edges) + blocks(v.n_hinges)) * sizeof(double));
   SF_CUDA(cudaStreamSynchronize(s));
 }
 
@@ -146,19 +148,34 @@ CostSetGpu::~CostSetGpu() = default;
 double CostSetGpu::evaluate(const double* x, const double* p, double* grad_x, double* grad_p,
                             std::array<double, opt::kNumCostTerms>* terms) {
   Impl& I = *impl_;
+  const size_t n = size_t(I.view.n);
+  cudaStream_t s = 0;
+  upload(I.x, x, 3 * n, s);
+  upload(I.p, p, 2 * n, s);
+  const double value = evaluate_device(I.x.as<double>(), I.p.as<double>(), I.gx.as<double>(), I.gp.as<double>(), terms);
+  SF_CUDA(cudaMemcpyAsync(grad_x, I.gx.p, 3 * n * sizeof(double), cudaMemcpyDeviceToHost, s));
+  SF_CUDA(cudaMemcpyAsync(grad_p, I.gp.p, 2 * n * sizeof(double), cudaMemcpyDeviceToHost, s));
+  SF_CUDA(cudaStreamSynchronize(s));
+  return value;
+}
+
+double CostSetGpu::evaluate_device(const double* d_x, const double* d_p, double* d_grad_x, double* d_grad_p,
+                                   std::array<double, opt::kNumCostTerms>* terms) {
+  Impl& I = *impl_;
   const opt::CostSetView& v = I.view;
   const opt::CostStrengths k = I.cs->strengths();
   if (k.dis != 0 && !v.has_sdf) throw std::logic_error("distance cost has a strength but no target SDF");
   if (k.pos != 0 && !v.has_pos) throw std::logic_error("positional cost has a strength but no transferred garment");
+  // The kernels read x and p after the first one has started writing the gradients.
+  if (d_grad_x == d_x || d_grad_p == d_p)
+    throw std::invalid_argument("evaluate_device: gradients must not overwrite x or p");
   cudaStream_t s = 0;
-  upload(I.x, x, 3 * size_t(v.n), s);
-  upload(I.p, p, 2 * size_t(v.n), s);
   Args a;
   a.n = v.n;
   a.ne = v.n_edges;
   a.nh = v.n_hinges;
-  a.x = I.x.as<Vec3>();
-  a.p = I.p.as<Vec2>();
+  a.x = reinterpret_cast<const Vec3*>(d_x);
+  a.p = reinterpret_cast<const Vec2*>(d_p);
   a.edges = I.edges.as<int>();
   a.hinges = I.hinges.as<int>();
   a.rbar = I.rbar.as<double>();
@@ -185,8 +202,8 @@ double CostSetGpu::evaluate(const double* x, const double* p, double* grad_x, do
   a.slot_ex = I.slot_ex.as<Vec3>();
   a.slot_ep = I.slot_ep.as<Vec2>();
   a.slot_hx = I.slot_hx.as<Vec3>();
-  a.gx = I.gx.as<Vec3>();
-  a.gp = I.gp.as<Vec2>();
+  a.gx = reinterpret_cast<Vec3*>(d_grad_x);
+  a.gp = reinterpret_cast<Vec2*>(d_grad_p);
   k_vertex_terms<<<blocks(v.n), kBlock, 0, s>>>(a);
   if (k.str != 0 && v.n_edges) k_edges<<<blocks(v.n_edges), kBlock, 0, s>>>(a);
   if (k.smo != 0 && v.n_hinges) k_hinges<<<blocks(v.n_hinges), kBlock, 0, s>>>(a);
@@ -200,15 +217,12 @@ double CostSetGpu::evaluate(const double* x, const double* p, double* grad_x, do
   if (k.pos != 0) { vals[opt::kPositional] = a.val_p; counts[opt::kPositional] = v.n; }
   int offset[opt::kNumCostTerms + 1] = {};
   for (int t = 0; t < opt::kNumCostTerms; ++t) offset[t + 1] = offset[t] + (vals[t] ? blocks(counts[t]) : 0);
-  I.part.reserve(size_t(std::max(offset[opt::kNumCostTerms], 1)) * sizeof(double));
   for (int t = 0; t < opt::kNumCostTerms; ++t)
     if (vals[t] && counts[t]) k_partial<<<blocks(counts[t]), kBlock, 0, s>>>(vals[t], counts[t], I.part.as<double>() + offset[t]);
   SF_CUDA(cudaGetLastError());
   I.part_host.resize(size_t(offset[opt::kNumCostTerms]));
   if (!I.part_host.empty())
     SF_CUDA(cudaMemcpyAsync(I.part_host.data(), I.part.p, I.part_host.size() * sizeof(double), cudaMemcpyDeviceToHost, s));
-  SF_CUDA(cudaMemcpyAsync(grad_x, I.gx.p, 3 * size_t(v.n) * sizeof(double), cudaMemcpyDeviceToHost, s));
-  SF_CUDA(cudaMemcpyAsync(grad_p, I.gp.p, 2 * size_t(v.n) * sizeof(double), cudaMemcpyDeviceToHost, s));
   SF_CUDA(cudaStreamSynchronize(s));
   std::array<double, opt::kNumCostTerms> t{};
   for (int q = 0; q < opt::kNumCostTerms; ++q) {

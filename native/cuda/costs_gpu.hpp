@@ -3,7 +3,9 @@
 // CPU's opt::CostSet (opt/costs/*.hpp) and the same slot gather. The constant data
 // (edges, hinges, base ratios and curvatures, the target field, the transferred
 // garment) is copied from a CostSet once; strengths are read from it at each call,
-// and a zero strength skips its term. Host-only interface: no CUDA types.
+// and a zero strength skips its term. evaluate_device takes float64 device arrays in
+// the host layout (its outputs must not overlap its inputs) and returns with them
+// complete. Host-only interface: no CUDA types.
 #pragma once
 #include <array>
 #include <memory>
@@ -23,6 +25,9 @@ class CostSetGpu {
   // As opt::CostSet::evaluate: total value, per-term values, gradients (n, 3), (n, 2).
   double evaluate(const double* x, const double* p, double* grad_x, double* grad_p,
                   std::array<double, opt::kNumCostTerms>* terms);
+  // As evaluate on device arrays: d_x (n, 3), d_p (n, 2) in; d_grad_x (n, 3), d_grad_p (n, 2) out.
+  double evaluate_device(const double* d_x, const double* d_p, double* d_grad_x, double* d_grad_p,
+                         std::array<double, opt::kNumCostTerms>* terms);
 
   struct Impl;
 

@@ -99,25 +99,33 @@ DfdpGpu::~DfdpGpu() = default;
 
 void DfdpGpu::apply(const double* x, const double* lam, double* out) {
   Impl& I = *impl_;
+  const int n = I.gpu->device_rest().n;
+  upload(I.x, x, 3 * size_t(n), I.stream);
+  upload(I.lam, lam, 3 * size_t(n), I.stream);
+  I.out.reserve(2 * size_t(n) * sizeof(double));
+  apply_device(I.x.as<double>(), I.lam.as<double>(), I.out.as<double>());
+  SF_CUDA(cudaMemcpyAsync(out, I.out.p, 2 * size_t(n) * sizeof(double), cudaMemcpyDeviceToHost, I.stream));
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+}
+
+void DfdpGpu::apply_device(const double* d_x, const double* d_lam, double* d_out) {
+  Impl& I = *impl_;
   // The pattern, rest state and topology as the GPU simulator holds them (its last sync()).
   const DeviceRest d = I.gpu->device_rest();
   const sim::SimParams& P = I.gpu->simulator().params();
   const int n = d.n, E = d.n_springs, T = d.n_tris, H = d.n_hinges;
-  upload(I.x, x, 3 * size_t(n), I.stream);
-  upload(I.lam, lam, 3 * size_t(n), I.stream);
   I.sp.reserve(2 * size_t(E) * sizeof(double));
   I.hp.reserve(8 * size_t(H) * sizeof(double));
   I.tp.reserve(6 * size_t(T) * sizeof(double));
   I.wv.reserve(size_t(n) * sizeof(double));
-  I.out.reserve(2 * size_t(n) * sizeof(double));
 
   Arrays a;
   a.n = n;
   a.E = P.stretch_Y > 0 ? E : 0;
   a.H = P.bend_kb > 0 ? H : 0;
   a.p = d.p;
-  a.x = I.x.as<double>();
-  a.lam = I.lam.as<double>();
+  a.x = d_x;
+  a.lam = d_lam;
   a.rest_L = d.rest_L;
   a.shirring = d.shirring;
   a.mass = d.mass;
@@ -135,7 +143,7 @@ void DfdpGpu::apply(const double* x, const double* lam, double* out) {
   a.hp = I.hp.as<double>();
   a.tp = I.tp.as<double>();
   a.wv = I.wv.as<double>();
-  a.out = I.out.as<double>();
+  a.out = d_out;
   a.Y = P.stretch_Y;
   a.kb = P.bend_kb;
   a.gv = P.gravity;
@@ -163,7 +171,6 @@ void DfdpGpu::apply(const double* x, const double* lam, double* out) {
   }
   k_gather<<<blocks(n), kBlock, 0, I.stream>>>(a);
   SF_CUDA(cudaGetLastError());
-  SF_CUDA(cudaMemcpyAsync(out, a.out, 2 * size_t(n) * sizeof(double), cudaMemcpyDeviceToHost, I.stream));
   SF_CUDA(cudaStreamSynchronize(I.stream));
 }
 

@@ -21,6 +21,8 @@ class DfdpGpu {
   // rest state and parameters (read from the CPU simulator at each call; the
   // body field is the GPU simulator's, so sync() it after a new body).
   void apply(const double* x, const double* lam, double* out);
+  // The same with x, lam (3n) and out (2n) in device memory.
+  void apply_device(const double* d_x, const double* d_lam, double* d_out);
 
   struct Impl;
 

@@ -2,6 +2,7 @@
 
 #include <cuda_runtime.h>
 
+#include <stdexcept>
 #include <vector>
 
 #include "dense_rows.cuh"
@@ -177,15 +178,23 @@ void PatternGpu::pattern(const Vec2* theta, Vec2* p) {
   Impl& I = *impl_;
   cudaStream_t s = I.stream;
   upload(I.theta, reinterpret_cast<const double*>(theta), 2 * size_t(I.nb), s);
-  if (I.nb) k_dtheta<<<grid(I.nb, 256), 256, 0, s>>>(I.nb, I.perm.as<int32_t>(), I.theta.as<double>(),
-                                                     I.theta_bar.as<double>(), I.dtheta.as<double>());
+  pattern_device(I.theta.as<double>(), I.p.as<double>());
+  SF_CUDA(cudaMemcpyAsync(p, I.p.p, 2 * size_t(I.n) * sizeof(double), cudaMemcpyDeviceToHost, s));
+  SF_CUDA(cudaStreamSynchronize(s));
+}
+
+void PatternGpu::pattern_device(const double* d_theta, double* d_p) {
+  Impl& I = *impl_;
+  // The scatter writes p while other threads still read theta.
+  if (d_p == d_theta) throw std::invalid_argument("pattern_device: p must not overwrite theta");
+  cudaStream_t s = I.stream;
+  if (I.nb) k_dtheta<<<grid(I.nb, 256), 256, 0, s>>>(I.nb, I.perm.as<int32_t>(), d_theta, I.theta_bar.as<double>(),
+                                                     I.dtheta.as<double>());
   I.launch(I.fwd);
   if (I.ni + I.nb)
     k_scatter_pattern<<<grid(I.ni + I.nb, 256), 256, 0, s>>>(I.ni, I.nb, I.vrow.as<int32_t>(), I.vb.as<int32_t>(),
-                                                             I.pbar.as<double>(), I.y.as<double>(),
-                                                             I.theta.as<double>(), I.p.as<double>());
+                                                             I.pbar.as<double>(), I.y.as<double>(), d_theta, d_p);
   SF_CUDA(cudaGetLastError());
-  SF_CUDA(cudaMemcpyAsync(p, I.p.p, 2 * size_t(I.n) * sizeof(double), cudaMemcpyDeviceToHost, s));
   SF_CUDA(cudaStreamSynchronize(s));
 }
 
@@ -193,14 +202,22 @@ void PatternGpu::adjoint(const Vec2* g, Vec2* g_theta) {
   Impl& I = *impl_;
   cudaStream_t s = I.stream;
   upload(I.g, reinterpret_cast<const double*>(g), 2 * size_t(I.n), s);
-  if (I.ni) k_gather_rows<<<grid(I.ni, 256), 256, 0, s>>>(I.ni, I.vrow.as<int32_t>(), I.g.as<double>(), I.gI.as<double>());
-  I.launch(I.adj);
-  if (I.nb) {
-    k_scatter_theta<<<grid(I.nb, 256), 256, 0, s>>>(I.nb, I.perm.as<int32_t>(), I.vb.as<int32_t>(), I.g.as<double>(),
-                                                     I.z.as<double>(), I.gt.as<double>());
-  }
-  SF_CUDA(cudaGetLastError());
+  adjoint_device(I.g.as<double>(), I.gt.as<double>());
   SF_CUDA(cudaMemcpyAsync(g_theta, I.gt.p, 2 * size_t(I.nb) * sizeof(double), cudaMemcpyDeviceToHost, s));
+  SF_CUDA(cudaStreamSynchronize(s));
+}
+
+void PatternGpu::adjoint_device(const double* d_g, double* d_g_theta) {
+  Impl& I = *impl_;
+  // The scatter writes g_theta while other threads still read g.
+  if (d_g_theta == d_g) throw std::invalid_argument("adjoint_device: g_theta must not overwrite g");
+  cudaStream_t s = I.stream;
+  if (I.ni) k_gather_rows<<<grid(I.ni, 256), 256, 0, s>>>(I.ni, I.vrow.as<int32_t>(), d_g, I.gI.as<double>());
+  I.launch(I.adj);
+  if (I.nb)
+    k_scatter_theta<<<grid(I.nb, 256), 256, 0, s>>>(I.nb, I.perm.as<int32_t>(), I.vb.as<int32_t>(), d_g,
+                                                     I.z.as<double>(), d_g_theta);
+  SF_CUDA(cudaGetLastError());
   SF_CUDA(cudaStreamSynchronize(s));
 }
 

@@ -4,7 +4,9 @@
 // as dense blocks, one per panel (opt::Parametrization::harmonic_blocks), and each
 // call is a dense matrix-vector product: bandwidth-bound, a fraction of a
 // millisecond at 60K triangles, against two sparse triangular solves on the CPU.
-// The blocks and their transposes (for the adjoint) stay in device memory.
+// The blocks and their transposes (for the adjoint) stay in device memory. The
+// *_device entry points take float64 device arrays in the host layout (outputs must
+// not overlap inputs) and return with their outputs complete.
 // Host-only interface: no CUDA types.
 #pragma once
 #include <cstddef>
@@ -26,6 +28,10 @@ class PatternGpu {
   // As opt::Parametrization::pattern / adjoint, host arrays in and out.
   void pattern(const Vec2* theta, Vec2* p);
   void adjoint(const Vec2* g, Vec2* g_theta);
+  // As pattern on device arrays: d_theta (n_theta, 2) in, d_p (n, 2) out.
+  void pattern_device(const double* d_theta, double* d_p);
+  // As adjoint on device arrays: d_g (n, 2) in, d_g_theta (n_theta, 2) out.
+  void adjoint_device(const double* d_g, double* d_g_theta);
   size_t device_bytes() const;
 
   struct Impl;

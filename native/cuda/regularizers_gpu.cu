@@ -82,13 +82,16 @@ __global__ void k_seam_gather(SeamArgs a) {
   block_sum<1>(v, a.part + blockIdx.x);
 }
 
-// The host's fixed-order sum of Q-valued block partials stored after the gradient.
+// The host's fixed-order sum of Q-valued block partials, copied back from the device.
 template <int Q>
-std::array<double, Q> sum_partials(const std::vector<double>& host, size_t at, int nblocks) {
-  std::array<double, Q> s{};
+std::array<double, Q> sum_partials(const double* part, int nblocks, std::vector<double>& host, cudaStream_t s) {
+  host.resize(size_t(Q) * nblocks);
+  SF_CUDA(cudaMemcpyAsync(host.data(), part, host.size() * sizeof(double), cudaMemcpyDeviceToHost, s));
+  SF_CUDA(cudaStreamSynchronize(s));
+  std::array<double, Q> t{};
   for (int b = 0; b < nblocks; ++b)
-    for (int q = 0; q < Q; ++q) s[q] += host[at + size_t(Q) * b + q];
-  return s;
+    for (int q = 0; q < Q; ++q) t[q] += host[size_t(Q) * b + q];
+  return t;
 }
 
 std::string mib(size_t b) { return std::to_string(b >> 20); }
@@ -100,13 +103,14 @@ struct RegularizersGpu::Impl {
   opt::Regularizers* pre = nullptr;
   cudaStream_t stream = nullptr;
   int nt = 0, ne = 0;
+  // out: the host path's gradient, then the block partials.
   DevBuf theta, theta_bar, z, w, elem, off, slots, val_cur, slot, out;
-  // P^-1 as one dense block of 2 n_theta rows; its row tables and the vectors in and out.
+  // P^-1 as one dense block of 2 n_theta rows; its row tables and the host path's vectors in and out.
   DevBuf inv, row_block, row0, col0, ncols, offset, gin, gout;
-  DenseRows rows;
+  DenseRows rows;  // in and out set per call
   long built = -1;  // precond's preconditioner_version when P^-1 was built
   long builds = 0;
-  std::vector<double> host;  // gradient then block partials, one copy back
+  std::vector<double> host;  // block partials
   ~Impl() {
     if (stream) cudaStreamDestroy(stream);
   }
@@ -160,8 +164,6 @@ RegularizersGpu::RegularizersGpu(const opt::Regularizers& objective, opt::Regula
   I.rows.ncols = I.ncols.as<int32_t>();
   I.rows.offset = I.offset.as<int64_t>();
   I.rows.A = I.inv.as<double>();
-  I.rows.in = I.gin.as<double>();
-  I.rows.out = I.gout.as<double>();
   SF_CUDA(cudaStreamSynchronize(s));  // the host vectors go out of scope
 }
 
@@ -170,14 +172,24 @@ RegularizersGpu::~RegularizersGpu() = default;
 double RegularizersGpu::evaluate(const Vec2* theta, Vec2* grad, std::array<double, 2>* terms) {
   Impl& I = *impl_;
   cudaStream_t s = I.stream;
+  const size_t n = 2 * size_t(I.nt);
+  upload(I.theta, reinterpret_cast<const double*>(theta), n, s);
+  const double value = evaluate_device(I.theta.as<double>(), I.out.as<double>(), terms);
+  SF_CUDA(cudaMemcpyAsync(grad, I.out.p, n * sizeof(double), cudaMemcpyDeviceToHost, s));
+  SF_CUDA(cudaStreamSynchronize(s));
+  return value;
+}
+
+double RegularizersGpu::evaluate_device(const double* d_theta, double* d_grad, std::array<double, 2>* terms) {
+  Impl& I = *impl_;
+  cudaStream_t s = I.stream;
   const int nt = I.nt, ne = I.ne, nb = blocks(std::max(std::max(nt, ne), 1));
   RegArgs a;
   a.nt = nt;
   a.ne = ne;
   a.fix = I.obj->delta_fix();
   a.cur = I.obj->delta_cur();
-  upload(I.theta, reinterpret_cast<const double*>(theta), 2 * size_t(nt), s);
-  a.theta = I.theta.as<Vec2>();
+  a.theta = reinterpret_cast<const Vec2*>(d_theta);
   a.theta_bar = I.theta_bar.as<Vec2>();
   a.z = I.z.as<Vec2>();
   a.elem = I.elem.as<int>();
@@ -186,22 +198,30 @@ double RegularizersGpu::evaluate(const Vec2* theta, Vec2* grad, std::array<doubl
   a.w = I.w.as<double>();
   a.val_cur = I.val_cur.as<double>();
   a.slot = I.slot.as<Vec2>();
-  a.grad = I.out.as<Vec2>();
-  a.part = I.out.as<double>() + 2 * size_t(nt);
+  a.grad = reinterpret_cast<Vec2*>(d_grad);
+  a.part = I.out.as<double>() + 2 * size_t(nt);  // after the host path's gradient
   if (a.cur != 0 && ne) k_curve<<<blocks(ne), kBlock, 0, s>>>(a);
   k_reg_gather<<<nb, kBlock, 0, s>>>(a);
   SF_CUDA(cudaGetLastError());
-  I.host.resize(2 * size_t(nt) + 2 * size_t(nb));
-  SF_CUDA(cudaMemcpyAsync(I.host.data(), I.out.p, I.host.size() * sizeof(double), cudaMemcpyDeviceToHost, s));
-  SF_CUDA(cudaStreamSynchronize(s));
-  std::copy(I.host.begin(), I.host.begin() + 2 * size_t(nt), reinterpret_cast<double*>(grad));
-  const std::array<double, 2> t = sum_partials<2>(I.host, 2 * size_t(nt), nb);
+  const std::array<double, 2> t = sum_partials<2>(a.part, nb, I.host, s);
   if (terms) *terms = t;
   return t[0] + t[1];
 }
 
 void RegularizersGpu::apply_preconditioner(const Vec2* g, Vec2* out) {
   Impl& I = *impl_;
+  cudaStream_t s = I.stream;
+  const size_t n = 2 * size_t(I.nt);
+  upload(I.gin, reinterpret_cast<const double*>(g), n, s);
+  apply_preconditioner_device(I.gin.as<double>(), I.gout.as<double>());
+  SF_CUDA(cudaMemcpyAsync(out, I.gout.p, n * sizeof(double), cudaMemcpyDeviceToHost, s));
+  SF_CUDA(cudaStreamSynchronize(s));
+}
+
+void RegularizersGpu::apply_preconditioner_device(const double* d_g, double* d_out) {
+  Impl& I = *impl_;
+  // Every row reads all of g.
+  if (d_out == d_g) throw std::invalid_argument("apply_preconditioner_device: out must not overwrite g");
   cudaStream_t s = I.stream;
   const size_t n = 2 * size_t(I.nt);
   if (I.built != I.pre->preconditioner_version()) {
@@ -213,10 +233,11 @@ void RegularizersGpu::apply_preconditioner(const Vec2* g, Vec2* out) {
     I.built = I.pre->preconditioner_version();
     ++I.builds;
   }
-  upload(I.gin, reinterpret_cast<const double*>(g), n, s);
-  launch_dense_rows<1>(I.rows, s);
+  DenseRows rows = I.rows;
+  rows.in = d_g;
+  rows.out = d_out;
+  launch_dense_rows<1>(rows, s);
   SF_CUDA(cudaGetLastError());
-  SF_CUDA(cudaMemcpyAsync(out, I.gout.p, n * sizeof(double), cudaMemcpyDeviceToHost, s));
   SF_CUDA(cudaStreamSynchronize(s));
 }
 
@@ -230,8 +251,8 @@ struct SeamLengthGpu::Impl {
   const opt::SeamLength* seam = nullptr;
   cudaStream_t stream = nullptr;
   int nt = 0, ns = 0;
-  DevBuf theta, seg, rho, off, slots, val, slot, out;
-  std::vector<double> host;
+  DevBuf theta, seg, rho, off, slots, val, slot, out;  // out: the host path's gradient, then the block partials
+  std::vector<double> host;  // block partials
   ~Impl() {
     if (stream) cudaStreamDestroy(stream);
   }
@@ -264,30 +285,36 @@ int SeamLengthGpu::n_theta() const { return impl_->nt; }
 double SeamLengthGpu::evaluate(const Vec2* theta, Vec2* grad) {
   Impl& I = *impl_;
   cudaStream_t s = I.stream;
+  const size_t n = 2 * size_t(I.nt);
+  upload(I.theta, reinterpret_cast<const double*>(theta), n, s);
+  const double value = evaluate_device(I.theta.as<double>(), I.out.as<double>());
+  SF_CUDA(cudaMemcpyAsync(grad, I.out.p, n * sizeof(double), cudaMemcpyDeviceToHost, s));
+  SF_CUDA(cudaStreamSynchronize(s));
+  return value;
+}
+
+double SeamLengthGpu::evaluate_device(const double* d_theta, double* d_grad) {
+  Impl& I = *impl_;
+  cudaStream_t s = I.stream;
   const int nt = I.nt, ns = I.ns, nb = blocks(std::max(std::max(nt, ns), 1));
   I.seam->count_evaluation();
   SeamArgs a;
   a.nt = nt;
   a.ns = ns;
   a.k = I.seam->delta_seam();
-  upload(I.theta, reinterpret_cast<const double*>(theta), 2 * size_t(nt), s);
-  a.theta = I.theta.as<Vec2>();
+  a.theta = reinterpret_cast<const Vec2*>(d_theta);
   a.seg = I.seg.as<int>();
   a.off = I.off.as<int>();
   a.slots = I.slots.as<int>();
   a.rho = I.rho.as<double>();
   a.val = I.val.as<double>();
   a.slot = I.slot.as<Vec2>();
-  a.grad = I.out.as<Vec2>();
-  a.part = I.out.as<double>() + 2 * size_t(nt);
+  a.grad = reinterpret_cast<Vec2*>(d_grad);
+  a.part = I.out.as<double>() + 2 * size_t(nt);  // after the host path's gradient
   if (ns) k_seam<<<blocks(ns), kBlock, 0, s>>>(a);
   k_seam_gather<<<nb, kBlock, 0, s>>>(a);
   SF_CUDA(cudaGetLastError());
-  I.host.resize(2 * size_t(nt) + size_t(nb));
-  SF_CUDA(cudaMemcpyAsync(I.host.data(), I.out.p, I.host.size() * sizeof(double), cudaMemcpyDeviceToHost, s));
-  SF_CUDA(cudaStreamSynchronize(s));
-  std::copy(I.host.begin(), I.host.begin() + 2 * size_t(nt), reinterpret_cast<double*>(grad));
-  return sum_partials<1>(I.host, 2 * size_t(nt), nb)[0];
+  return sum_partials<1>(a.part, nb, I.host, s)[0];
 }
 
 }  // namespace seamfit::cuda

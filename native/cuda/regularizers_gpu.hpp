@@ -8,6 +8,8 @@
 // is one dense symmetric matrix-vector product, one warp per row (dense_rows.cuh):
 // bandwidth-bound, where the two sparse triangular solves of the factorization would run
 // level by level. The CPU objects keep the strengths; P^-1 is rebuilt when P changes.
+// The *_device entry points take float64 device arrays in the host layout (outputs
+// must not overlap inputs) and return with their outputs complete.
 // Host-only interface: no CUDA types.
 #pragma once
 #include <array>
@@ -35,6 +37,10 @@ class RegularizersGpu {
   double evaluate(const Vec2* theta, Vec2* grad, std::array<double, 2>* terms);
   // P^-1 g; P^-1 is (re)built first when precond's P changed since the last call.
   void apply_preconditioner(const Vec2* g, Vec2* out);
+  // As evaluate on device arrays: d_theta (n_theta, 2) in, d_grad (n_theta, 2) out.
+  double evaluate_device(const double* d_theta, double* d_grad, std::array<double, 2>* terms);
+  // As apply_preconditioner on device arrays: d_g (n_theta, 2) in, d_out (n_theta, 2) out.
+  void apply_preconditioner_device(const double* d_g, double* d_out);
   // Bytes P^-1 takes on the device for n_theta boundary entries.
   static size_t inverse_bytes(int n_theta) { return 8 * size_t(2 * n_theta) * size_t(2 * n_theta); }
   size_t device_bytes() const;
@@ -59,6 +65,8 @@ class SeamLengthGpu {
 
   // As opt::SeamLength::evaluate.
   double evaluate(const Vec2* theta, Vec2* grad);
+  // As evaluate on device arrays: d_theta (n_theta, 2) in, d_grad (n_theta, 2) out.
+  double evaluate_device(const double* d_theta, double* d_grad);
   int n_theta() const;
 
   struct Impl;

@@ -291,6 +291,18 @@ __global__ void k_first_inside(DevModel<R> m, const double* x, int* first) {
   if (!(sim::barrier_field(m.sdf, m.smooth != 0, load3(x, v)).phi > 0)) atomicMin(first, v);
 }
 
+// The least index of a vertex that a solve's start could not take as it is: a
+// coordinate that is not finite, or (with the barrier) phi not above `floor` (the host
+// path then checks and projects it, as the CPU solver does).
+template <class R>
+__global__ void k_first_unsafe(DevModel<R> m, const double* x, double floor, int* first) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= m.n) return;
+  const Vec3 p = load3(x, v);
+  const bool finite = isfinite(p.x) && isfinite(p.y) && isfinite(p.z);
+  if (!finite || (m.bar && !(sim::barrier_field(m.sdf, m.smooth != 0, p).phi > floor))) atomicMin(first, v);
+}
+
 __global__ void k_to_float(const double* in, float* out, size_t count) {
   const size_t i = size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i < count) out[i] = float(in[i]);  // rounds to nearest, as the host conversion did
@@ -579,6 +591,13 @@ void SimGpu::sync() {
   }
   I.bar = a.has_sdf && I.params.mu > 0;
   if (I.bar) I.S.reserve(size_t(a.n) * sizeof(SdfSample));
+  refresh_model();
+  SF_CUDA(cudaStreamSynchronize(I.stream));  // the host arrays may change after this returns
+}
+
+void SimGpu::refresh_model() {
+  Impl& I = *impl_;
+  const sim::SimArrays a = I.sim->arrays();
   SdfGridView g = a.sdf;
   g.values = a.has_sdf ? I.sdf_values.as<float>() : nullptr;
   // The model is baked into the graph's kernel arguments; new values behind the
@@ -591,9 +610,17 @@ void SimGpu::sync() {
   fill_model(I.m32, I);
   I.m64.stick = I.m32.stick = a.any_sticking;
   I.m64.sdf = I.m32.sdf = g;
-  SF_CUDA(cudaStreamSynchronize(I.stream));  // the host arrays may change after this returns
   if (std::memcmp(old64, &I.m64, sizeof old64) != 0 || std::memcmp(old32, &I.m32, sizeof old32) != 0)
     I.graph_dirty = true;
+}
+
+void SimGpu::set_pattern_device(const double* d_p) {
+  Impl& I = *impl_;
+  sync();  // anything else the CPU model changed comes first
+  if (d_p != I.p.as<double>())
+    SF_CUDA(cudaMemcpyAsync(I.p.p, d_p, 2 * size_t(I.n) * sizeof(double), cudaMemcpyDeviceToDevice, I.stream));
+  update_rest_state();  // synchronizes
+  refresh_model();
 }
 
 void SimGpu::update_rest_state() {
@@ -681,6 +708,21 @@ int SimGpu::first_inside(const double* x, double* phi_out) {
   return v;
 }
 
+int SimGpu::first_unsafe_device(const double* d_x, double floor) {
+  Impl& I = *impl_;
+  I.first.reserve(sizeof(int));
+  const int none = I.n;
+  SF_CUDA(cudaMemcpyAsync(I.first.p, &none, sizeof(int), cudaMemcpyHostToDevice, I.stream));
+  I.with_model([&](auto& m) {
+    k_first_unsafe<<<(I.n + 255) / 256, 256, 0, I.stream>>>(m, d_x, floor, I.first.as<int>());
+  });
+  SF_CUDA(cudaGetLastError());
+  int v = none;
+  SF_CUDA(cudaMemcpyAsync(&v, I.first.p, sizeof(int), cudaMemcpyDeviceToHost, I.stream));
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+  return v < I.n ? v : -1;
+}
+
 void copy_to_host(void* dst, const void* src, size_t bytes) {
   SF_CUDA(cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToHost));
 }
@@ -765,7 +807,50 @@ sim::SolveReport SimGpu::solve(double* x, const sim::SolveSettings& st, const si
   sim::SolveReport rep;
   std::vector<double> xh(x, x + n3);
   if (I.bar) rep.projections += I.sim->project_outside(xh.data(), sim::kProjectFloor, I.sim->projection_gap());
+  for (int b = 0; b < 2; ++b)
+    SF_CUDA(cudaMemcpyAsync(I.xbuf[b].p, xh.data(), n3 * sizeof(double), cudaMemcpyHostToDevice, I.stream));
+  SF_CUDA(cudaMemcpyAsync(I.ck.p, xh.data(), n3 * sizeof(double), cudaMemcpyHostToDevice, I.stream));
+  int cur = 0;
+  rep = run_chebyshev(st, progress, cancel, t0, rep, cur);
+  SF_CUDA(cudaMemcpyAsync(x, I.xbuf[cur].p, n3 * sizeof(double), cudaMemcpyDeviceToHost, I.stream));
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+  rep.seconds = seconds_since(t0);
+  return rep;
+}
 
+sim::SolveReport SimGpu::solve_device(double* d_x, const sim::SolveSettings& st, const sim::ProgressFn& progress,
+                                      const std::atomic<bool>* cancel) {
+  Impl& I = *impl_;
+  const auto t0 = Clock::now();
+  const size_t bytes = 3 * size_t(I.n) * sizeof(double);
+  if (st.method != 0)
+    throw sim::SimError("the CUDA backend runs the Chebyshev solver (method 0); Newton runs on the CPU");
+  // A start the host path would change or reject (a coordinate not finite, a vertex
+  // to project out of the body) goes through it, so both paths keep the CPU's rules;
+  // the search's states are outside the body already, and stay on the device.
+  if (first_unsafe_device(d_x, sim::kProjectFloor) >= 0) {
+    std::vector<double> xh(3 * size_t(I.n));
+    copy_to_host(xh.data(), d_x, bytes);
+    sim::SolveReport rep = solve(xh.data(), st, progress, cancel);
+    SF_CUDA(cudaMemcpy(d_x, xh.data(), bytes, cudaMemcpyHostToDevice));
+    rep.seconds = seconds_since(t0);
+    return rep;
+  }
+  for (int b = 0; b < 2; ++b)
+    SF_CUDA(cudaMemcpyAsync(I.xbuf[b].p, d_x, bytes, cudaMemcpyDeviceToDevice, I.stream));
+  SF_CUDA(cudaMemcpyAsync(I.ck.p, d_x, bytes, cudaMemcpyDeviceToDevice, I.stream));
+  int cur = 0;
+  sim::SolveReport rep = run_chebyshev(st, progress, cancel, t0, sim::SolveReport(), cur);
+  SF_CUDA(cudaMemcpyAsync(d_x, I.xbuf[cur].p, bytes, cudaMemcpyDeviceToDevice, I.stream));
+  SF_CUDA(cudaStreamSynchronize(I.stream));
+  rep.seconds = seconds_since(t0);
+  return rep;
+}
+
+sim::SolveReport SimGpu::run_chebyshev(const sim::SolveSettings& st, const sim::ProgressFn& progress,
+                                       const std::atomic<bool>* cancel, std::chrono::steady_clock::time_point t0,
+                                       sim::SolveReport rep, int& cur) {
+  Impl& I = *impl_;
   Ctrl c;
   c.tol = st.tolerance;
   c.weight_norm = I.weight_norm;
@@ -783,9 +868,6 @@ sim::SolveReport SimGpu::solve(double* x, const sim::SolveSettings& st, const si
   // Buffers baked into the graph: growing them means capturing it again.
   if (I.upd_norm.reserve(size_t(c.warmup) * sizeof(double))) I.graph_dirty = true;
   if (I.hist.reserve(3 * size_t(std::max(c.hist_cap, 1)) * sizeof(double))) I.graph_dirty = true;
-  for (int b = 0; b < 2; ++b)
-    SF_CUDA(cudaMemcpyAsync(I.xbuf[b].p, xh.data(), n3 * sizeof(double), cudaMemcpyHostToDevice, I.stream));
-  SF_CUDA(cudaMemcpyAsync(I.ck.p, xh.data(), n3 * sizeof(double), cudaMemcpyHostToDevice, I.stream));
   *I.snap = c;
   SF_CUDA(cudaMemcpyAsync(I.ctrl.p, I.snap, sizeof(Ctrl), cudaMemcpyHostToDevice, I.stream));
   // The start state: evaluate, then the top of iteration 0.
@@ -821,7 +903,6 @@ sim::SolveReport SimGpu::solve(double* x, const sim::SolveSettings& st, const si
     c = I.read_ctrl();
   }
 
-  SF_CUDA(cudaMemcpyAsync(x, I.xbuf[c.cur].p, n3 * sizeof(double), cudaMemcpyDeviceToHost, I.stream));
   std::vector<double> hist(3 * size_t(c.hist_count));
   if (c.hist_count)
     SF_CUDA(cudaMemcpyAsync(hist.data(), I.hist.p, hist.size() * sizeof(double), cudaMemcpyDeviceToHost, I.stream));
@@ -838,7 +919,7 @@ sim::SolveReport SimGpu::solve(double* x, const sim::SolveSettings& st, const si
   rep.rejected_steps = c.rejected;
   rep.final_rho = c.rho;
   rep.final_alpha = c.alpha;
-  rep.seconds = seconds_since(t0);
+  cur = c.cur;
   if (c.status == kConverged) {
     rep.converged = true;
     rep.message = sim::msg_converged(c.res, st.tolerance, c.it, "iterations");

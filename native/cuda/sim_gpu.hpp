@@ -5,6 +5,7 @@
 // per batch of iterations (a CUDA graph). Host-only interface: no CUDA types.
 #pragma once
 #include <atomic>
+#include <chrono>
 #include <cstddef>
 #include <memory>
 #include <stdexcept>
@@ -70,6 +71,9 @@ class SimGpu {
   // barrier's field, or -1), sampled on the device: the CPU's serial scan costs
   // milliseconds at 60K triangles, and every GPU entry point checks its x.
   int first_inside(const double* x, double* phi_out = nullptr);
+  // For x (3n) in device memory: the least index of a vertex with a coordinate that
+  // is not finite or, with the barrier, phi not above `floor`; -1 if none.
+  int first_unsafe_device(const double* d_x, double floor);
   DeviceRest device_rest() const;
 
   // f = -dE/dx (3n) at x; returns the energy (+inf with a vertex inside).
@@ -80,6 +84,15 @@ class SimGpu {
   // The Chebyshev solve of Simulator::solve (method 0) on the device.
   sim::SolveReport solve(double* x, const sim::SolveSettings& s, const sim::ProgressFn& progress,
                          const std::atomic<bool>* cancel = nullptr);
+  // The same solve with x (3n) in device memory, in and out: the search's inexact
+  // steps, whose state stays on the device. A start with a vertex to project (or a
+  // coordinate not finite) takes the host path, so the rules are the CPU's.
+  sim::SolveReport solve_device(double* d_x, const sim::SolveSettings& s, const sim::ProgressFn& progress,
+                                const std::atomic<bool>* cancel = nullptr);
+  // A new pattern p (2n doubles in device memory) and its rest state, computed here,
+  // without the CPU simulator: until its next set_pattern (which sync() then
+  // uploads), the device's pattern is ahead of the CPU's.
+  void set_pattern_device(const double* d_p);
 
   // Device times of the iteration's kernels at x, median of `reps` graph replays.
   KernelTimes time_kernels(const double* x, int reps);
@@ -101,6 +114,10 @@ class SimGpu {
 
  private:
   void update_rest_state();  // from the uploaded p, on the device
+  void refresh_model();      // the device model's pointers and parameters; marks the graph stale if they moved
+  sim::SolveReport run_chebyshev(const sim::SolveSettings& s, const sim::ProgressFn& progress,
+                                 const std::atomic<bool>* cancel, std::chrono::steady_clock::time_point t0,
+                                 sim::SolveReport rep, int& cur);  // from seeded state buffers
   GpuOptions opt_;
   std::unique_ptr<Impl> impl_;
 };

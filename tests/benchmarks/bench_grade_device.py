@@ -29,6 +29,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "native" / "python"))
 
 from seamfit.fileio import atomic_write_text  # noqa: E402
+from seamfit.opt.grade import GradeSettings  # noqa: E402
 
 SAMPLES = ROOT / "sample_files"
 PATTERN = SAMPLES / "patterns" / "gc_pencil_skirt" / "size06" / "pattern.json"
@@ -51,7 +52,7 @@ def gpu_parts(report: dict):
 
 def grade_once(edge_cm: float, device: str, args) -> dict:
     from seamfit.body import load_body
-    from seamfit.opt.grade import GradeSettings, grade
+    from seamfit.opt.grade import grade
     from seamfit.pattern import load_pattern
     from seamfit.sim import SimSettings
 
@@ -59,6 +60,7 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
                              sdf_spacing=args.sdf_spacing, sdf_region=args.sdf_region,
                              adjoint_forcing=args.adjoint_forcing, adjoint_coarse=args.adjoint_coarse,
                              accept_unsettled_base=args.accept_unsettled_base,
+                             device_state=not args.host_state,
                              checkpoint_every=args.checkpoint_every, device=device,
                              evaluate_base_pattern=False, time_budget_s=args.time_budget)
     sim_settings = SimSettings(max_seconds=args.stage_seconds,
@@ -69,6 +71,7 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
     return {"edge_length_cm": edge_cm, "sdf_spacing_mm": 1000 * args.sdf_spacing, "device": r["device"],
             "sdf": r.get("sdf"),
             "adjoint_forcing": args.adjoint_forcing, "adjoint_coarse": args.adjoint_coarse,
+            "state_on_gpu": r.get("state_on_gpu"),
             "rho_max": sim_settings.rho_max,
             "triangles": r["mesh"]["triangles"],
             "vertices": r["mesh"]["vertices"], "wall_s": time.perf_counter() - t0,
@@ -299,7 +302,7 @@ def cmd_curves(args) -> int:
     doubles it and accepted checkpoints halve it back, as in Algorithm 1), plotted as the paper's relative error
     (f - f*) / (f0 - f*), f* the lowest final objective of all runs."""
     from seamfit.body import load_body
-    from seamfit.opt.grade import GradeSettings, grade
+    from seamfit.opt.grade import grade
     from seamfit.pattern import load_pattern
 
     args.out.mkdir(parents=True, exist_ok=True)
@@ -360,8 +363,10 @@ def main(argv=None) -> int:
     r.add_argument("--sdf-region", choices=("auto", "body", "garment"), default="auto",
                    help="body SDFs over the whole body, cut to the garment's height band, or auto (whole body "
                         "unless its grid is over the builder's node limit)")
-    r.add_argument("--adjoint-forcing", type=float, default=0.0,
-                   help="GPU adjoint tolerance at inexact states: max(1e-8, F * residual)")
+    r.add_argument("--adjoint-forcing", type=float, default=GradeSettings.adjoint_forcing,
+                   help="GPU adjoint tolerance at inexact states: max(1e-8, F * residual) (default: the grading's)")
+    r.add_argument("--host-state", action="store_true",
+                   help="the loop on host arrays, not GPU state between checkpoints (to measure what it saves)")
     r.add_argument("--accept-unsettled-base", action="store_true",
                    help="time the grading even when the base drape does not settle (its row says so)")
     r.add_argument("--rho-max", type=float, default=0.0,

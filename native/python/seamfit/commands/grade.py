@@ -81,13 +81,13 @@ def register(subparsers) -> None:
     p.add_argument("--truth", metavar="PATTERN", type=Path, default=None,
                    help="a pattern drafted for the target body: report landmark errors against it")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto",
-                   help="where the simulations and the adjoint solve run (default auto: the GPU when one is "
-                        "present and the garment is large enough to pay; the costs and df/dp run on the CPU); "
-                        "cuda fails at once with the reason when no GPU or CUDA build is present")
+                   help="where the grading loop runs (default auto: the GPU when one is present and the garment "
+                        "is large enough to pay); cuda fails at once with the reason when no GPU or CUDA build "
+                        "is present")
     p.add_argument("--adjoint-forcing", metavar="F", type=float, default=d.adjoint_forcing,
                    help="on the GPU, solve the adjoint at inexact states only to F x the state's residual "
-                        "(default 0: to 1e-8 everywhere, the CPU's search; 0.01 is faster and takes another "
-                        "path of the search, docs/gpu.md)")
+                        "(default %(default)s; 0: to 1e-8 everywhere, as the CPU's direct solve, 4x slower "
+                        "at 60K triangles, docs/gpu.md)")
     p.add_argument("--no-picture", action="store_true", help="do not write drape.png and pattern.png")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)

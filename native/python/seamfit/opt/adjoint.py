@@ -53,6 +53,7 @@ import scipy.sparse.linalg as spla
 
 from .._native import core
 from ..errors import SolveError
+from .device_arrays import Buffers, all_finite, host, is_device
 
 DEFAULT_SHIFT = 1e-8
 # MINRES on the GPU: |r|_{M^-1} <= tol |g|_{M^-1}; docs/gpu.md has the gradient error
@@ -105,7 +106,8 @@ class AdjointSolver:
         self._gpu_adjoint = None
         self._x = None                 # the state set on the GPU
         self._x_residual = None        # its relative residual, when the caller knew it
-        self._lam = None               # the last lam: the next GPU solve's start
+        self._lam = None               # the last lam: the next GPU solve's start (NumPy or DeviceArray)
+        self._out = Buffers()          # DeviceArray lam
 
     def stats(self) -> dict:
         d = {"device": self.device, "factorizations": self.factorizations, "lu_fallbacks": self.lu_fallbacks,
@@ -121,14 +123,15 @@ class AdjointSolver:
 
     def factorize(self, x, residual: float | None = None) -> None:
         """Prepare solves at the garment state x; `residual`: x's relative residual
-        if known (the GPU solve's tolerance and fallback rule use it)."""
+        if known (the GPU solve's tolerance and fallback rule use it). x may be a
+        DeviceArray (device "cuda": the state stays on the GPU)."""
         self._x_residual = residual
         t0 = time.perf_counter()
         try:
             if self.device == "cuda":
-                self._set_gpu_state(np.asarray(x, dtype=np.float64).reshape(-1, 3))
+                self._set_gpu_state(x if is_device(x) else np.asarray(x, dtype=np.float64).reshape(-1, 3))
             else:
-                self._factorize(np.asarray(x, dtype=np.float64))
+                self._factorize(np.asarray(host(x), dtype=np.float64))
         finally:
             self.seconds_factorize += time.perf_counter() - t0
 
@@ -141,10 +144,15 @@ class AdjointSolver:
     def _set_gpu_state(self, x) -> None:
         gpu = self.sim.cuda()
         gpu.sync()  # the pattern (rest state) may have changed since the last simulation
-        self._gpu().set_state(gpu._gpu, x, self.psd, self.shift)
+        if is_device(x):
+            self._gpu().set_state_device(gpu._gpu, x, self.psd, self.shift)
+        else:
+            self._gpu().set_state(gpu._gpu, x, self.psd, self.shift)
         if self.coarse > 0 and (self._coarse_agg is None or self._at_equilibrium()):
-            self._build_coarse(x)
-        self._x = x.copy()
+            self._build_coarse(host(x))
+        # A DeviceArray is kept by reference: it stays unchanged until the gradient that
+        # set it is done (the fallback and the residual read it then).
+        self._x = x if is_device(x) else x.copy()
         self._solve = self._solve_gpu
         self.factorizations += 1
 
@@ -159,6 +167,7 @@ class AdjointSolver:
         if self._coarse_agg is None:
             self._coarse_agg = aggregates(x, self.sim.mesh.triangles, self.coarse)
         agg, n_agg = self._coarse_agg
+        self.sim.sync_host_pattern()
         inv = coarse_inverse(self.sim.hessian(x, psd=True), agg, n_agg, self.shift)
         self._gpu().set_coarse(self.sim.cuda()._gpu, agg, n_agg, inv)
         self.coarse_builds += 1
@@ -166,37 +175,60 @@ class AdjointSolver:
 
     def _solve_gpu(self, g) -> np.ndarray:
         gpu = self.sim.cuda()
-        g = np.ascontiguousarray(g, dtype=np.float64).reshape(-1, 3)
-        lam0 = self._lam if self._lam is not None and self._lam.shape == g.shape else None
+        dev = is_device(g)
+        if dev:
+            # The warm start stays on the GPU too (uploaded once if it came from the host).
+            lam = self._out.get("lam", g.shape[0], 3)
+            if isinstance(self._lam, np.ndarray) and self._lam.shape == tuple(g.shape):
+                lam.upload(self._lam)
+            elif self._lam is not lam:
+                lam.upload(np.zeros(tuple(g.shape)))
+
+            def minres(budget):
+                return self._gpu().solve_device(gpu._gpu, g, lam, tol, budget)
+        else:
+            g = np.ascontiguousarray(g, dtype=np.float64).reshape(-1, 3)
+            lam = host(self._lam) if self._lam is not None and tuple(self._lam.shape) == g.shape else None
+
+            def minres(budget):
+                nonlocal lam
+                lam, rep = self._gpu().solve(gpu._gpu, g, lam, tol, budget)
+                return rep
         residual = None
         if self.equilibrium_tolerance is not None:
-            residual = self._x_residual if self._x_residual is not None else gpu.residual(self._x)
+            residual = self._x_residual if self._x_residual is not None else gpu.residual(host(self._x))
         inexact = residual is not None and residual > self.equilibrium_tolerance
         tol = self.gpu_tolerance
         if inexact and self.inexact_forcing > 0:
             tol = max(tol, self.inexact_forcing * residual)
             self.relaxed += 1
-        lam, rep = self._gpu().solve(gpu._gpu, g, lam0, tol, self.gpu_max_iterations)
+        rep = minres(self.gpu_max_iterations)
         self.minres_iterations += int(rep["iterations"])
         more = (GPU_EQUILIBRIUM_BUDGET_FACTOR - 1) * self.gpu_max_iterations
         if (not rep["converged"] and rep["status"] == "budget" and not inexact and more > 0
-                and np.all(np.isfinite(lam))):
+                and all_finite(lam)):
             # MINRES restarted from its last iterate: the same tolerance on the same system.
-            lam, rep = self._gpu().solve(gpu._gpu, g, lam, tol, more)
+            rep = minres(more)
             self.minres_iterations += int(rep["iterations"])
             self.extended += 1
         self.last_report = rep
-        finite = bool(np.all(np.isfinite(lam)))
+        finite = all_finite(lam)
         if not rep["converged"] and finite and rep["status"] == "budget" and inexact:
             self.truncated += 1
         elif not rep["converged"] or not finite:
-            # The direct solve is exact and robust; it costs a factorization.
+            # The direct solve is exact and robust; it costs a factorization (of the CPU
+            # model, so a pattern set on the GPU alone goes to it first).
             self.gpu_fallbacks += 1
-            self._factorize(self._x)  # timed within this solve
-            lam = np.asarray(self._solve(g.reshape(-1))).reshape(-1, 3)
+            self.sim.sync_host_pattern()
+            self._factorize(np.asarray(host(self._x), dtype=np.float64))  # timed within this solve
+            lam_h = np.asarray(self._solve(host(g).reshape(-1))).reshape(-1, 3)
             self._solve = self._solve_gpu
+            if dev:
+                lam.upload(lam_h)
+            else:
+                lam = lam_h
         self._lam = lam
-        return lam.reshape(-1)
+        return lam if dev else lam.reshape(-1)
 
     def _factorize(self, x) -> None:
         if self._ldlt is None:
@@ -220,13 +252,18 @@ class AdjointSolver:
         self.lu_fallbacks += 1
 
     def solve(self, g) -> np.ndarray:
+        """lam with H lam = g; a DeviceArray g (device "cuda") gives a DeviceArray lam,
+        this solver's buffer, which is also the next solve's warm start."""
         if self._solve is None:
             raise SolveError("AdjointSolver.solve called before factorize")
         t0 = time.perf_counter()
-        lam = np.asarray(self._solve(np.ascontiguousarray(g, dtype=float).reshape(-1)))
+        if is_device(g) and self._solve == self._solve_gpu:
+            lam = self._solve_gpu(g)
+        else:
+            lam = np.asarray(self._solve(np.ascontiguousarray(host(g), dtype=float).reshape(-1)))
         self.seconds_solve += time.perf_counter() - t0
         self.solves += 1
-        if not np.all(np.isfinite(lam)):
+        if not all_finite(lam):
             raise SolveError("the adjoint solve produced non-finite values")
         return lam
 
@@ -237,6 +274,13 @@ class AdjointSolver:
         if refactor or self._solve is None:
             self.factorize(x, residual)
         lam = self.solve(grad_x)
+        if is_device(x):
+            # All on the GPU: the product into its buffer, then grad_p added there.
+            if not is_device(lam):
+                lam = self._out.put("lam_host", np.reshape(lam, (-1, 3)))
+            out = self.sim.cuda().dfdp_T(x, lam)
+            out.axpy(1.0, grad_p)
+            return out
         # On the GPU the product runs there too (the rest state is read at each call).
         dfdp = self.sim.cuda().dfdp_T if self.device == "cuda" else self.sim.dfdp_T
         return np.asarray(grad_p, dtype=float).reshape(-1, 2) + dfdp(x, lam.reshape(-1, 3))

@@ -6,6 +6,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from .._native import core
+from .device_arrays import Buffers, host, is_device
 from ..errors import SolveError
 from ._mesh import mesh_arrays
 
@@ -97,6 +98,7 @@ class CostSet:
                 raise SolveError("the positional cost needs the transferred garment (xtilde)")
             u = positional_weights(mesh) if positional_weight is None else np.asarray(positional_weight, float)
             self._native.set_positional(np.ascontiguousarray(xtilde, dtype=float), u)
+        self._device_out = Buffers()  # DeviceArray gradients
 
     _gpu = None  # CudaCostSet mirror when evaluating on the GPU
 
@@ -117,7 +119,16 @@ class CostSet:
         return "cpu" if self._gpu is None else "cuda"
 
     def evaluate(self, x, p):
-        """-> (value, {"dis", "smo", "str", "pos"}, grad_x (N, 3), grad_p (N, 2))."""
+        """-> (value, {"dis", "smo", "str", "pos"}, grad_x (N, 3), grad_p (N, 2)). With x and p
+        DeviceArrays the gradients are DeviceArrays too (seamfit.opt.device_arrays)."""
+        if is_device(x):
+            out = self._device_out
+            gx, gp = out.get("grad_x", x.shape[0], 3), out.get("grad_p", x.shape[0], 2)
+            if self._gpu is not None:
+                c, terms = self._gpu.evaluate_device(self._native, x, p, gx, gp)
+                return c, terms, gx, gp
+            c, terms, hx, hp = self._native.evaluate(host(x), host(p))
+            return c, terms, out.put("grad_x", hx), out.put("grad_p", hp)
         x, p = np.asarray(x, dtype=float), np.asarray(p, dtype=float)
         if self._gpu is not None:
             return self._gpu.evaluate(self._native, x, p)

@@ -9,6 +9,11 @@ cost alone for the two-phase baseline):
 
 The result is always an exact checkpoint, so its objective is that of a converged
 drape, and it never ends higher than the checkpoint before it.
+
+On the GPU (simulator and adjoint on device "cuda") theta and x live in GPU memory
+(seamfit.opt.device_arrays) from one exact checkpoint to the next: an inexact outer
+iteration moves only scalars to the host. They come down for the checkpoint's exact
+solve, whose result is kept on the host, and go back up after it.
 """
 from __future__ import annotations
 
@@ -16,7 +21,15 @@ import time
 
 import numpy as np
 
+from .device_arrays import to_device
 from .output import SearchOutcome
+
+
+def _on_gpu(ctx) -> bool:
+    """Whether the search's state can stay on the GPU: its simulator and adjoint run there
+    (the other pieces take GPU arrays on either device)."""
+    return (ctx.adjoint.device == "cuda" and ctx.sim.settings.device == "cuda"
+            and getattr(ctx.settings, "device_state", True))
 
 
 def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOutcome:
@@ -55,25 +68,31 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
     # the simulator's device), gradient (costs, adjoint solve, df/dp) and the rest.
     split = {"simulation": 0.0, "gradient": 0.0, "objective": 0.0}
     record(f0, True)
+    # The state the outer iterations work on: x and theta themselves, or their GPU copies.
+    gpu = _on_gpu(ctx)
+    x_w, theta_w = (to_device(x), to_device(theta)) if gpu else (x, theta)
     max_work = 4 * settings.max_outer_iterations
     while k < settings.max_outer_iterations and work < max_work:
         t_part = time.perf_counter()
-        f_cur, g = objective.gradient(x, theta, residual=x_res)
+        f_cur, g = objective.gradient(x_w, theta_w, residual=x_res)
         split["gradient"] += time.perf_counter() - t_part
-        d = -regs.apply_preconditioner(g)
+        pg = regs.apply_preconditioner(g)  # the step goes along -P^-1 g
         # The preconditioner fixes the direction's shape, not its scale: cap the move
         # so an inexact state far from equilibrium cannot throw the pattern away.
         # The trust radius shrinks and grows with s, so backtracking really shortens steps.
-        dmax = float(np.max(np.abs(d))) if d.size else 0.0
+        dmax = pg.max_abs() if gpu else (float(np.max(np.abs(pg))) if pg.size else 0.0)
         step = s if dmax == 0 else s * min(1.0, 1e-3 * settings.max_move_mm / dmax)
-        theta = theta + step * d
+        if gpu:
+            theta_w.axpy(-step, pg)
+        else:
+            theta = theta_w = theta - step * pg
         k += 1
         work += 1
-        sim.set_pattern(param.pattern(theta))
+        sim.set_pattern(param.pattern(theta_w))
         at_checkpoint = (k % settings.checkpoint_every == 0) or k == settings.max_outer_iterations
         if not at_checkpoint:
             t_part = time.perf_counter()
-            x, rep = sim.iterate(x, S)
+            x_w, rep = sim.iterate(x_w, S)
             x_res = float(rep["residual"])
             split["simulation"] += time.perf_counter() - t_part
             record(f_cur, False)
@@ -82,6 +101,10 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
                 at_checkpoint = True
             else:
                 continue
+        if gpu:
+            theta, x = theta_w.numpy(), x_w.numpy()
+        else:
+            x = x_w
         t_part = time.perf_counter()
         res = ctx.exact(theta, x, "checkpoint")
         t_obj = time.perf_counter()
@@ -96,6 +119,7 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
             backtracks += 1
             k = (k - 1) // settings.checkpoint_every * settings.checkpoint_every
             theta, x, x_res = ck_theta.copy(), ck_x.copy(), ck_res
+            theta_w, x_w = _restart(gpu, theta_w, x_w, theta, x)
             sim.set_pattern(param.pattern(theta))
             S = min(2 * S, settings.max_inner_iterations)
             s *= 0.5
@@ -109,6 +133,7 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
         ck_theta, ck_x, ck_f, ck_res = theta.copy(), res.x.copy(), f, float(res.residual)
         checkpoints.append((k, f, grading_f(res.x, theta, f)))
         x, x_res = res.x, ck_res
+        theta_w, x_w = _restart(gpu, theta_w, x_w, theta, x)
         record(f, True)
         ctx.tell(stage=label, iteration=k, objective=f, exact=True, state=sim_state)
         S = max(S // 2, settings.min_inner_iterations)
@@ -127,6 +152,16 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
                      for i, fs, fg in checkpoints],
         cost_evaluations=dict(objective.evaluations), history=hist,
         seconds_loop=time.perf_counter() - t_loop,
-        details={"seconds_loop_split": {**split, "factorizations": ctx.adjoint.seconds_factorize,
+        details={"state_on_gpu": gpu, "seconds_loop_split": {**split, "factorizations": ctx.adjoint.seconds_factorize,
                                         "adjoint_solves": ctx.adjoint.seconds_solve},
                  "adjoint": ctx.adjoint.stats()})
+
+
+def _restart(gpu: bool, theta_w, x_w, theta, x):
+    """The working state after a checkpoint: (theta, x) from the host, on the GPU in
+    the same buffers."""
+    if not gpu:
+        return theta, x
+    theta_w.upload(np.ascontiguousarray(theta, dtype=float))
+    x_w.upload(np.ascontiguousarray(x, dtype=float))
+    return theta_w, x_w

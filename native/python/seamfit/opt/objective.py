@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .device_arrays import is_device
+
 
 class Objective:
     """Value and gradient of f at a garment state x and pattern parameters theta.
@@ -33,13 +35,21 @@ class Objective:
 
     def gradient(self, x, theta, residual: float | None = None) -> tuple[float, np.ndarray]:
         """f and its gradient in theta; `residual`: x's relative residual when its
-        solve reported it (else the adjoint evaluates it where it needs it)."""
+        solve reported it (else the adjoint evaluates it where it needs it). With x and
+        theta DeviceArrays every step runs on the GPU and the gradient is a DeviceArray
+        (the parametrization's buffer, valid until its next call)."""
         p = self.param.pattern(theta)
         c, _, gx, gp = self.costs.evaluate(x, p)
         r, _, gr = self.regs.evaluate(theta)
         rs, gs = self._seam(theta)
         gp_total = self.adjoint.pattern_gradient(x, gx, gp, residual=residual)
-        g = self.param.adjoint(gp_total) + gr
+        g = self.param.adjoint(gp_total)
+        if is_device(g):
+            g.axpy(1.0, gr)
+            if gs is not None:
+                g.axpy(1.0, gs)
+            return float(c + r + rs), g
+        g = g + gr
         if gs is not None:
             g = g + gs
         return float(c + r + rs), g

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._native import core
+from .device_arrays import Buffers, host, is_device
 from ..errors import PatternError
 from ._mesh import mesh_arrays
 
@@ -34,6 +35,7 @@ class Parametrization:
         self.theta_index = np.full(a.n_vertices, -1, dtype=np.int64)
         self.theta_index[self.boundary_ids] = np.arange(len(self.boundary_ids))
         self._gpu = None
+        self._out = Buffers()  # DeviceArray results
         self.device_note = ""   # why use_device("cuda") stayed on the CPU, if it did
 
     def use_device(self, device: str) -> str:
@@ -65,14 +67,27 @@ class Parametrization:
         return len(self.boundary_ids)
 
     def pattern(self, theta) -> np.ndarray:
-        """p(theta): (n_theta, 2) -> (n_vertices, 2), metres."""
+        """p(theta): (n_theta, 2) -> (n_vertices, 2), metres. A DeviceArray theta gives a
+        DeviceArray p (this object's buffer, valid until the next call)."""
+        if is_device(theta):
+            if self._gpu is None:
+                return self._out.put("p", self._native.pattern(host(theta)))
+            p = self._out.get("p", len(self.pbar), 2)
+            self._gpu.pattern_device(self._native, theta, p)
+            return p
         theta = np.ascontiguousarray(theta, dtype=float).reshape(-1, 2)
         if self._gpu is not None:
             return self._gpu.pattern(self._native, theta)
         return self._native.pattern(theta)
 
     def adjoint(self, g) -> np.ndarray:
-        """(dp/dtheta)^T g: (n_vertices, 2) -> (n_theta, 2)."""
+        """(dp/dtheta)^T g: (n_vertices, 2) -> (n_theta, 2); DeviceArray in, DeviceArray out."""
+        if is_device(g):
+            if self._gpu is None:
+                return self._out.put("g_theta", self._native.adjoint(host(g)))
+            gt = self._out.get("g_theta", self.n_theta, 2)
+            self._gpu.adjoint_device(self._native, g, gt)
+            return gt
         g = np.ascontiguousarray(g, dtype=float).reshape(-1, 2)
         if self._gpu is not None:
             return self._gpu.adjoint(self._native, g)

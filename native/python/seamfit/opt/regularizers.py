@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._native import core
+from .device_arrays import Buffers, host, is_device
 from ..errors import PatternError
 
 # w_i of R^cur: corners bend freely so the angle between two curves can adjust.
@@ -53,6 +54,7 @@ class Regularizers:
             self._precond = core().Regularizers(param.theta_bar, loops, weight)
         self.set_strengths(delta_fix, delta_cur, objective_fix=objective_fix)
         self._gpu = None
+        self._out = Buffers()  # DeviceArray results
         self.device_note = ""   # why use_device("cuda") stayed on the CPU, if it did
 
     def use_device(self, device: str) -> str:
@@ -97,14 +99,28 @@ class Regularizers:
             self._precond.set_strengths(self.delta_fix, self.delta_cur)
 
     def evaluate(self, theta):
-        """-> (value, {"fix", "cur"}, gradient (n_theta, 2))."""
+        """-> (value, {"fix", "cur"}, gradient (n_theta, 2)); a DeviceArray theta gives a
+        DeviceArray gradient (this object's buffer, valid until the next call)."""
+        if is_device(theta):
+            if self._gpu is None:
+                v, (rf, rc), g = self._native.evaluate(host(theta))
+                return v, {"fix": rf, "cur": rc}, self._out.put("grad", g)
+            g = self._out.get("grad", theta.shape[0], 2)
+            v, (rf, rc) = self._gpu.evaluate_device(theta, g)
+            return v, {"fix": rf, "cur": rc}, g
         theta = np.ascontiguousarray(theta, dtype=float).reshape(-1, 2)
         v, (rf, rc), g = (self._native if self._gpu is None else self._gpu).evaluate(theta)
         return v, {"fix": rf, "cur": rc}, g
 
     def apply_preconditioner(self, g) -> np.ndarray:
         """P^-1 g with P the (constant) Hessian of the regularizers (on the GPU: P^-1
-        rebuilt first when P changed)."""
+        rebuilt first when P changed); DeviceArray in, DeviceArray out."""
+        if is_device(g):
+            if self._gpu is None:
+                return self._out.put("precond", self._precond.apply_preconditioner(host(g)))
+            out = self._out.get("precond", g.shape[0], 2)
+            self._gpu.apply_preconditioner_device(g, out)
+            return out
         g = np.ascontiguousarray(g, dtype=float).reshape(-1, 2)
         return (self._precond if self._gpu is None else self._gpu).apply_preconditioner(g)
 

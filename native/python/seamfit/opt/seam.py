@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._native import core
+from .device_arrays import Buffers, host, is_device
 
 
 def seam_segments(mesh, param) -> np.ndarray:
@@ -45,6 +46,7 @@ class SeamLength:
         self._native = core().SeamLength(param.theta_bar, seam_segments(mesh, param))
         self.set_strength(delta_seam)
         self._gpu = None
+        self._out = Buffers()  # DeviceArray results
         self.device_note = ""   # kept for symmetry with Parametrization and Regularizers
 
     def use_device(self, device: str) -> str:
@@ -85,7 +87,13 @@ class SeamLength:
         return np.asarray(self._native.ratios)
 
     def evaluate(self, theta):
-        """-> (value, gradient (n_theta, 2))."""
+        """-> (value, gradient (n_theta, 2)); a DeviceArray theta gives a DeviceArray gradient."""
+        if is_device(theta):
+            if self._gpu is None:
+                v, g = self._native.evaluate(host(theta))
+                return v, self._out.put("grad", g)
+            g = self._out.get("grad", theta.shape[0], 2)
+            return self._gpu.evaluate_device(theta, g), g
         theta = np.ascontiguousarray(theta, dtype=float).reshape(-1, 2)
         return (self._native if self._gpu is None else self._gpu).evaluate(theta)
 

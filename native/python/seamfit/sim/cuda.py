@@ -60,6 +60,9 @@ class CudaSimulator:
                                          use_graph=use_graph, float_rest=float_rest, fuse_control=fuse_control)
         self._adjoint = None  # CudaAdjoint for Newton's steps, made on first use
         self._dfdp = None     # CudaDfdp, made on first use
+        self._device_p = None       # a copy of the pattern last set on the device alone
+        self.device_pattern_ahead = False  # ... which the CPU simulator has not got yet
+        self._dfdp_out = None       # DeviceArray result of dfdp_T
 
     @property
     def device_name(self) -> str:
@@ -126,11 +129,40 @@ class CudaSimulator:
             self._gpu.sync()
         return self._gpu.solve(np.asarray(x0, dtype=np.float64).reshape(-1, 3), st, progress)
 
+    def solve_device(self, x, *, settings, progress: Optional[Callable[[int, float], bool]] = None) -> dict:
+        """The solve with x a DeviceArray (N, 3), advanced in place: the search's state
+        stays on the GPU. Returns the report."""
+        self._gpu.sync()
+        return self._gpu.solve_device(x, settings, progress)
+
+    def set_pattern_device(self, p) -> None:
+        """A new pattern (DeviceArray (N, 2)) and its rest state on the GPU alone."""
+        if self._device_p is None or tuple(self._device_p.shape) != tuple(p.shape):
+            self._device_p = core().DeviceArray.zeros(*p.shape)
+        self._device_p.copy_from(p)
+        self._gpu.set_pattern_device(self._device_p)
+        self.device_pattern_ahead = True
+
+    def take_device_pattern(self):
+        """The pattern set on the GPU alone since the CPU simulator's last one (NumPy),
+        or None; the caller hands it to the CPU simulator."""
+        if not self.device_pattern_ahead:
+            return None
+        self.device_pattern_ahead = False
+        return self._device_p.numpy()
+
     def dfdp_T(self, x, lam) -> np.ndarray:
         """(df/dp)^T lam, shape (N, 2), on the GPU: the adjoint gradient's matrix-free
-        product, from the same element functions as Simulator.dfdp_T."""
+        product, from the same element functions as Simulator.dfdp_T. With DeviceArrays
+        x and lam the result is a DeviceArray (reused by the next call)."""
         if self._dfdp is None:
             self._dfdp = core().CudaDfdp(self._gpu)
+        from ..opt.device_arrays import is_device
+        if is_device(x):
+            if self._dfdp_out is None or self._dfdp_out.shape[0] != x.shape[0]:
+                self._dfdp_out = core().DeviceArray.zeros(x.shape[0], 2)
+            self._dfdp.apply_device(self._gpu, x, lam, self._dfdp_out)
+            return self._dfdp_out
         return self._dfdp.apply(self._gpu, np.asarray(x, dtype=np.float64).reshape(-1, 3),
                                 np.asarray(lam, dtype=np.float64).reshape(-1, 3))
 

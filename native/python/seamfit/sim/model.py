@@ -224,9 +224,23 @@ class Simulator:
         self._sdf_values = values  # shared with the core, which reads it in place
 
     def set_pattern(self, p: np.ndarray) -> None:
-        """New rest state p (N, 2), metres."""
+        """New rest state p (N, 2), metres. A DeviceArray p goes to the GPU mirror alone,
+        which computes its rest state there; the CPU model (``self.p``) catches up only
+        when a CPU method needs it (``sync_host_pattern``)."""
+        from ..opt.device_arrays import is_device
+        if is_device(p):
+            self.cuda().set_pattern_device(p)
+            return
         self.p = np.asarray(p, dtype=np.float64).reshape(-1, 2).copy()
         self._core.set_pattern(self.p)
+        if self._gpu is not None:
+            self._gpu.device_pattern_ahead = False  # the GPU's sync() takes this one
+
+    def sync_host_pattern(self) -> None:
+        """Bring the CPU model to a pattern set on the GPU alone (a no-op otherwise)."""
+        p = None if self._gpu is None else self._gpu.take_device_pattern()
+        if p is not None:
+            self.set_pattern(p)
 
     def set_shirring(self, r) -> None:
         r = np.broadcast_to(np.asarray(r, dtype=np.float64), (self._core.n_springs,)).copy()
@@ -244,6 +258,12 @@ class Simulator:
     # ---------------------------------------------------------------- layout
     @property
     def core(self):
+        """The native CPU model, up to date (a pattern set on the GPU alone comes down first)."""
+        return self._host_model()
+
+    def _host_model(self):
+        if self._gpu is not None and self._gpu.device_pattern_ahead:
+            self.sync_host_pattern()
         return self._core
 
     @property
@@ -264,41 +284,41 @@ class Simulator:
 
     # ------------------------------------------------------------ evaluation
     def energy(self, x) -> tuple[float, dict[str, float]]:
-        return self._core.energy(np.asarray(x, dtype=np.float64))
+        return self._host_model().energy(np.asarray(x, dtype=np.float64))
 
     def force(self, x) -> np.ndarray:
         """f = -dE/dx, shape (N, 3)."""
-        return self._core.force(np.asarray(x, dtype=np.float64))
+        return self._host_model().force(np.asarray(x, dtype=np.float64))
 
     def residual(self, x) -> float:
-        return self._core.residual(np.asarray(x, dtype=np.float64))
+        return self._host_model().residual(np.asarray(x, dtype=np.float64))
 
     def hessian(self, x, psd: bool = False):
         """d2E/dx2 (the tangent stiffness, = -df/dx) as scipy.sparse.csc_matrix, 3N x 3N."""
         import scipy.sparse as sp
-        data, indices, indptr, shape = self._core.hessian(np.asarray(x, dtype=np.float64), psd)
+        data, indices, indptr, shape = self._host_model().hessian(np.asarray(x, dtype=np.float64), psd)
         return sp.csc_matrix((data, indices, indptr), shape=shape)
 
     def hess_vec(self, x, v, psd: bool = False) -> np.ndarray:
-        return self._core.hess_vec(np.asarray(x, dtype=np.float64), np.asarray(v, dtype=np.float64), psd)
+        return self._host_model().hess_vec(np.asarray(x, dtype=np.float64), np.asarray(v, dtype=np.float64), psd)
 
     def dfdp_T(self, x, lam) -> np.ndarray:
         """(df/dp)^T lam, shape (N, 2), for the adjoint (p in metres)."""
-        return self._core.dfdp_T(np.asarray(x, dtype=np.float64), np.asarray(lam, dtype=np.float64))
+        return self._host_model().dfdp_T(np.asarray(x, dtype=np.float64), np.asarray(lam, dtype=np.float64))
 
     def phi(self, x, barrier_field: bool = False) -> np.ndarray:
         """phi at every vertex: the SDF grid's trilinear field (the body as
         measured), or with barrier_field the smooth field the barrier acts on."""
-        return self._core.sample_phi(np.asarray(x, dtype=np.float64), barrier_field)
+        return self._host_model().sample_phi(np.asarray(x, dtype=np.float64), barrier_field)
 
     def sewing_gaps(self, x) -> np.ndarray:
-        return self._core.sewing_gaps(np.asarray(x, dtype=np.float64))
+        return self._host_model().sewing_gaps(np.asarray(x, dtype=np.float64))
 
     def project_outside(self, x) -> tuple[np.ndarray, int]:
         """Vertices inside the body moved onto its surface (to the barrier's rest
         gap), as the solvers do with start positions; returns (x, how many)."""
-        gap = self._core.projection_gap
-        return self._core.project_outside(np.asarray(x, dtype=np.float64), 1e-9, gap)
+        gap = self._host_model().projection_gap
+        return self._host_model().project_outside(np.asarray(x, dtype=np.float64), 1e-9, gap)
 
     # --------------------------------------------------------------- solving
     def cuda(self):
@@ -314,10 +334,11 @@ class Simulator:
         (synchronized with the current parameters first)."""
         dev = device or self.settings.device
         if dev == "cpu":
-            return self._core.solve(x, st, progress)
+            return self._host_model().solve(x, st, progress)
         if dev != "cuda":
             raise DeviceError(f"unknown device {dev!r} (cpu or cuda)")
         if st.method == 1:
+            self._host_model()  # its line search runs on the CPU model
             return self.cuda().newton(x, settings=st, progress=progress)
         return self.cuda().solve(x, settings=st, progress=progress)
 
@@ -362,7 +383,13 @@ class Simulator:
         """Exactly `iterations` Chebyshev iterations from x0 (the search's inexact
         steps): (x, report), without the summary a DrapeResult computes on the CPU
         (energy, sewing gaps, phi), which at 60K triangles costs more than the
-        iterations on the GPU. report["residual"] is the relative residual at x."""
+        iterations on the GPU. report["residual"] is the relative residual at x.
+        A DeviceArray x0 (GPU only) is advanced in place and returned."""
+        from ..opt.device_arrays import is_device
+        if is_device(x0):
+            if (device or self.settings.device) != "cuda":
+                raise DeviceError("a garment state on the GPU needs device cuda")
+            return x0, self.cuda().solve_device(x0, settings=self._settings(1e-12, int(iterations), "chebyshev"))
         x = self._start(x0)
         return self._run(x, self._settings(1e-12, int(iterations), "chebyshev"), None, device)
 
@@ -519,7 +546,7 @@ class Simulator:
 
     def _result(self, x: np.ndarray, stages: list[dict]) -> DrapeResult:
         last = stages[-1]
-        e, terms = self._core.energy(x)
+        e, terms = self._host_model().energy(x)
         gaps = self.sewing_gaps(x)
         phi = self.phi(x) if self._core.has_sdf else np.array([np.inf])
         hist = {"iteration": [], "seconds": [], "residual": []}

@@ -143,10 +143,12 @@ def cmd_report(args) -> int:
              "factorizations and solves, on the GPU MINRES (with its block setup); MINRES iterations per "
              "solve, and how many solves stopped at the iteration budget at an inexact state (kept) or "
              "fell back to the CPU at an equilibrium state.", "",
-             "| triangles | device (on the GPU) | SDF mm | adjoint forcing | base drape s | loop s | per outer iteration s "
+             "State: where theta and x live between exact checkpoints on the GPU (GPU: DeviceArrays; host: NumPy "
+             "arrays, each GPU piece copying in and out; rows before the GPU state existed are host).", "",
+             "| triangles | device (on the GPU) | state | SDF mm | adjoint forcing | base drape s | loop s | per outer iteration s "
              "| simulation s | gradient s | adjoint s | MINRES iterations per solve (kept at budget / fallbacks) "
              "| objective s | outer iterations accepted / done | objective reduction | pattern difference mm |",
-             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in sorted(ok, key=lambda r: (r["triangles"], r["device"])):
         sp = r["split"]
         bd = r["base_drape"]
@@ -156,6 +158,7 @@ def cmd_report(args) -> int:
         forcing = adj.get("inexact_forcing", r.get("adjoint_forcing", 0.0)) if r["device"] == "cuda" else None
         lines.append(
             f"| {r['triangles']:,} | {r['device']}{' (' + r['gpu_parts'] + ')' if r.get('gpu_parts') else ''} | "
+            f"{'-' if r['device'] != 'cuda' else ('GPU' if r.get('state_on_gpu') else 'host')} | "
             f"{r.get('sdf_spacing_mm', 2.5):g} | "
             f"{'-' if forcing is None else format(forcing, 'g')} | "
             f"{'cached' if bd.get('cached') else format(bd['seconds'], '.1f')}"

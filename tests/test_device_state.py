@@ -158,6 +158,59 @@ def test_the_adjoint_gradient_on_device_arrays_matches_the_host_one(ctx):
         _close(g_d, g_h, rel=1e-9)
 
 
+def test_a_fallback_to_the_cpu_factorization_sees_the_pattern_set_on_the_gpu(ctx):
+    """A MINRES solve that cannot converge at a settled state falls back to the CPU's direct
+    solve. With the state on the GPU the CPU model is behind (the pattern was set there
+    alone): the fallback brings it up first, so its gradient is the host path's."""
+    from seamfit.opt.adjoint import AdjointSolver
+    from seamfit.opt.device_arrays import to_device
+    from seamfit.opt.objective import Objective
+
+    x = ctx.extra["x"]
+    theta = ctx.param.theta_bar * 1.004
+    ctx.sim.set_pattern(ctx.param.pattern(ctx.param.theta_bar))   # the CPU model: another pattern
+    grads = []
+    for wrap in (np.asarray, to_device):
+        adj = AdjointSolver(ctx.sim, device="cuda", equilibrium_tolerance=1e3, gpu_max_iterations=3)
+        obj = Objective(ctx.param, ctx.regs, ctx.costs, ctx.sim, adj, ctx.seam)
+        th = wrap(theta)
+        ctx.sim.set_pattern(ctx.param.pattern(th))
+        if wrap is to_device:
+            assert ctx.sim.cuda().device_pattern_ahead
+        f, g = obj.gradient(wrap(x), th, residual=1e-4)
+        assert adj.gpu_fallbacks == 1 and adj.extended == 1
+        grads.append((f, host(g).copy()))
+    assert not ctx.sim.cuda().device_pattern_ahead
+    assert grads[1][0] == pytest.approx(grads[0][0], rel=1e-12)
+    _close(grads[1][1], grads[0][1], rel=1e-9)
+
+
+def test_pieces_left_on_the_cpu_take_gpu_state_too(monkeypatch):
+    """A parametrization and a P^-1 too large for GPU memory stay on the CPU; with the
+    search's state on the GPU they copy in and out, and the search is the host loop's."""
+    from dataclasses import replace
+
+    from seamfit.body import load_body
+    from seamfit.opt import Parametrization, Regularizers
+    from seamfit.opt.grade import GradeSettings, grade
+    from seamfit.opt.presets import preset
+    from seamfit.pattern import load_pattern
+
+    monkeypatch.setattr(Parametrization, "GPU_MAX_BYTES", 1024)
+    monkeypatch.setattr(Regularizers, "GPU_MAX_BYTES", 1024)
+    runs = {}
+    for on in (True, False):
+        s = GradeSettings(strengths=replace(preset("dress").strengths, smo=0.0), edge_length_cm=4.0,
+                          sdf_spacing=0.005, max_outer_iterations=24, checkpoint_every=8, device="cuda",
+                          evaluate_base_pattern=False, device_state=on)
+        runs[on] = grade(load_pattern(PATTERN), load_body(B0), load_body(B1), s)
+    dev, hst = runs[True].report, runs[False].report
+    assert dev["devices"]["parametrization"] == dev["devices"]["regularizers"] == "cpu"
+    assert dev["state_on_gpu"] is True
+    assert dev["objective_final"] == hst["objective_final"]
+    assert np.array_equal(np.asarray(runs[True].uv_cm), np.asarray(runs[False].uv_cm))
+
+
 def test_a_pattern_set_on_the_gpu_alone_reaches_the_cpu_model(ctx):
     """set_pattern(DeviceArray) leaves the CPU model behind until a CPU method needs it; then
     it comes down, and the CPU's energy is the GPU's again. A later host set_pattern wins."""
@@ -242,4 +295,6 @@ if not GPU:
          test_every_piece_answers_device_arrays_as_numpy_arrays,
          test_the_adjoint_gradient_on_device_arrays_matches_the_host_one,
          test_a_pattern_set_on_the_gpu_alone_reaches_the_cpu_model, test_a_start_the_cpu_would_project_takes_the_host_path,
+         test_a_fallback_to_the_cpu_factorization_sees_the_pattern_set_on_the_gpu,
+         test_pieces_left_on_the_cpu_take_gpu_state_too,
          test_the_search_on_gpu_state_ends_where_the_host_loop_ends)

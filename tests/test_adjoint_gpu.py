@@ -8,36 +8,24 @@ collected elsewhere rather than reported as skipped); the refusal runs everywher
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
+from grading_helpers import settled_sample_grading
 from seamfit._native import core
 from seamfit.errors import DeviceError, SolveError
 from seamfit.opt.adjoint import GPU_EQUILIBRIUM_BUDGET_FACTOR, AdjointSolver
 
 GPU = core().cuda_device_count() > 0
-SAMPLES = Path(__file__).resolve().parents[1] / "sample_files"
 
 
 @pytest.fixture(scope="module")
 def state():
     """The grading context (4 cm mesh, GPU simulations) and an exact target drape."""
-    from seamfit.body import load_body
-    from seamfit.opt.grade import GradeSettings
-    from seamfit.opt.prepare import prepare
-    from seamfit.pattern import load_pattern
-
-    settings = GradeSettings(edge_length_cm=4.0, sdf_spacing=0.005, device="cuda", evaluate_base_pattern=False)
-    ctx = prepare(load_pattern(SAMPLES / "patterns/gc_pencil_skirt/size06/pattern.json"),
-                  load_body(SAMPLES / "bodies/women_size06.obj"), load_body(SAMPLES / "bodies/women_size10.obj"),
-                  settings)
-    res = ctx.exact(ctx.param.theta_bar, ctx.xtilde, "test")
-    assert res.converged
+    ctx, x = settled_sample_grading(4.0, "cuda")
     p = ctx.param.pattern(ctx.param.theta_bar)
-    _, _, gx, gp = ctx.costs.evaluate(res.x, p)
-    return ctx, res.x, np.asarray(gx, dtype=float), np.asarray(gp, dtype=float)
+    _, _, gx, gp = ctx.costs.evaluate(x, p)
+    return ctx, x, np.asarray(gx, dtype=float), np.asarray(gp, dtype=float)
 
 
 @pytest.mark.parametrize("psd", [False, True])

@@ -4,7 +4,6 @@ with SciPy's MINRES on the CPU, that block Jacobi plus the coarse correction sol
 adjoint system of a real grading state in fewer iterations than block Jacobi alone."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,7 +13,6 @@ import scipy.sparse.linalg as spla
 from seamfit.errors import SolveError
 from seamfit.opt.coarse_space import aggregates, coarse_inverse, prolongation, surface_area
 
-SAMPLES = Path(__file__).resolve().parents[1] / "sample_files"
 
 
 def grid_sheet(n: int, size: float = 1.0):
@@ -75,18 +73,9 @@ def test_coarse_inverse_is_the_inverse_of_the_galerkin_matrix():
 def test_two_level_preconditioner_needs_fewer_minres_iterations_than_block_jacobi():
     """MINRES on H lam = dF/dx at a settled grading state (the pencil skirt on the size 10
     body), from the PSD diagonal blocks alone and with the coarse correction added."""
-    from seamfit.body import load_body
-    from seamfit.opt.grade import GradeSettings
-    from seamfit.opt.prepare import prepare
-    from seamfit.pattern import load_pattern
+    from grading_helpers import settled_sample_grading
 
-    settings = GradeSettings(edge_length_cm=2.0, sdf_spacing=0.005, device="cpu", evaluate_base_pattern=False)
-    ctx = prepare(load_pattern(SAMPLES / "patterns/gc_pencil_skirt/size06/pattern.json"),
-                  load_body(SAMPLES / "bodies/women_size06.obj"), load_body(SAMPLES / "bodies/women_size10.obj"),
-                  settings)
-    res = ctx.exact(ctx.param.theta_bar, ctx.xtilde, "test")
-    assert res.converged
-    x = res.x
+    ctx, x = settled_sample_grading(2.0, "cpu")
     _, _, gx, _ = ctx.costs.evaluate(x, ctx.param.pattern(ctx.param.theta_bar))
     g = np.asarray(gx, dtype=float).reshape(-1)
     H = ctx.sim.hessian(x).tocsr()

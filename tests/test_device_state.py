@@ -63,20 +63,13 @@ def test_device_arrays_round_trip_losslessly_and_do_their_arithmetic():
 @pytest.fixture(scope="module")
 def ctx():
     """A grading context on the GPU (4 cm mesh) with R^seam on, and the exact target drape."""
-    from seamfit.body import load_body
-    from seamfit.opt.grade import GradeSettings
-    from seamfit.opt.prepare import prepare
-    from seamfit.opt.presets import preset
-    from seamfit.pattern import load_pattern
     from dataclasses import replace
 
-    strengths = replace(preset("dress").strengths, seam=10.0)
-    settings = GradeSettings(strengths=strengths, edge_length_cm=4.0, sdf_spacing=0.005, device="cuda",
-                             evaluate_base_pattern=False)
-    c = prepare(load_pattern(PATTERN), load_body(B0), load_body(B1), settings)
-    res = c.exact(c.param.theta_bar, c.xtilde, "test")
-    assert res.converged
-    c.extra["x"] = res.x
+    from grading_helpers import settled_sample_grading
+    from seamfit.opt.presets import preset
+
+    c, x = settled_sample_grading(4.0, "cuda", strengths=replace(preset("dress").strengths, seam=10.0))
+    c.extra["x"] = x
     return c
 
 

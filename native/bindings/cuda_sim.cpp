@@ -179,6 +179,15 @@ void bind_cuda_sim(py::module_& m) {
              return r;
            },
            "The device's rest lengths, masses and weight norm (after a sync), for comparison with the CPU's.")
+      .def("pattern",
+           [](SimGpu& g) {
+             // No sync: the pattern the device holds now, which may be one set there alone.
+             const seamfit::cuda::DeviceRest d = g.device_rest();
+             py::array_t<double> p({py::ssize_t(d.n), py::ssize_t(2)});
+             seamfit::cuda::copy_to_host(p.mutable_data(), d.p, 2 * size_t(d.n) * sizeof(double));
+             return p;
+           },
+           "The device's pattern (n, 2), copied back.")
       .def_property_readonly("device_name", &SimGpu::device_name)
       .def_property_readonly("device_bytes", &SimGpu::device_bytes)
       .def_property_readonly("float_rest", [](const SimGpu& g) { return g.options().float_rest; })

@@ -60,8 +60,7 @@ class CudaSimulator:
                                          use_graph=use_graph, float_rest=float_rest, fuse_control=fuse_control)
         self._adjoint = None  # CudaAdjoint for Newton's steps, made on first use
         self._dfdp = None     # CudaDfdp, made on first use
-        self._device_p = None       # a copy of the pattern last set on the device alone
-        self.device_pattern_ahead = False  # ... which the CPU simulator has not got yet
+        self.device_pattern_ahead = False  # a pattern set on the device alone, not yet on the CPU
         self._dfdp_out = None       # DeviceArray result of dfdp_T
 
     @property
@@ -136,11 +135,9 @@ class CudaSimulator:
         return self._gpu.solve_device(x, settings, progress)
 
     def set_pattern_device(self, p) -> None:
-        """A new pattern (DeviceArray (N, 2)) and its rest state on the GPU alone."""
-        if self._device_p is None or tuple(self._device_p.shape) != tuple(p.shape):
-            self._device_p = core().DeviceArray.zeros(*p.shape)
-        self._device_p.copy_from(p)
-        self._gpu.set_pattern_device(self._device_p)
+        """A new pattern (DeviceArray (N, 2)) and its rest state on the GPU alone (the
+        device keeps its own copy of p)."""
+        self._gpu.set_pattern_device(p)
         self.device_pattern_ahead = True
 
     def take_device_pattern(self):
@@ -149,7 +146,7 @@ class CudaSimulator:
         if not self.device_pattern_ahead:
             return None
         self.device_pattern_ahead = False
-        return self._device_p.numpy()
+        return self._gpu.pattern()
 
     def dfdp_T(self, x, lam) -> np.ndarray:
         """(df/dp)^T lam, shape (N, 2), on the GPU: the adjoint gradient's matrix-free

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 
 from .errors import SeamfitError
@@ -32,14 +33,38 @@ def _version() -> str:
     return __version__
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that the same cleanup runs (temporary output folders,
+    half-written cache files) instead of the process dying where it stands."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    installed, previous = _install_sigterm()
     try:
         return int(args.func(args) or 0)
     except SeamfitError as exc:
         print(f"seamfit {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except Terminated:
+        print(f"seamfit {args.command}: terminated (SIGTERM)", file=sys.stderr)
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
-        print(f"seamfit {args.command}: interrupted", file=sys.stderr)
-        return 130
+        print(f"seamfit {args.command}: interrupted (SIGINT)", file=sys.stderr)
+        return 128 + signal.SIGINT
+    finally:
+        if installed:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+
+
+def _install_sigterm():
+    """The handler, where signals can be handled (the main thread); the one it replaced."""
+    try:
+        return True, signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:                           # not the main thread
+        return False, None

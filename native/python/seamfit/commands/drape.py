@@ -3,9 +3,10 @@
 Writes DIR/garment.obj (the draped garment: 3D positions in the sewn mesh's vertex
 order, vt = pattern coordinates in cm, one group per panel), DIR/report.json
 (iterations, seconds, residual, seams, contact, energy terms, sizes) and
-DIR/drape.png (front, side and back views). Progress goes to stderr. Exit code 0
-when the drape converged, 1 when it stopped first (the files are still written
-and say so), 2 on an error.
+DIR/drape.png (front, side and back views), as one set: written into a temporary
+folder beside DIR and moved into place (an existing non-empty DIR only with --force).
+Progress goes to stderr. Exit code 0 when the drape converged, 1 when it stopped first
+(the files are still written and say so), 2 on an error.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import time
 from pathlib import Path
 
 from ..errors import SeamfitError
+from ..output_set import OutputSet, add_force_argument
 
 EPILOG = """\
 The garment starts from the pattern's placement (GarmentCode: exact; FreeSewing:
@@ -74,6 +76,7 @@ def register(subparsers) -> None:
                         "the garment is large enough to pay; the Newton polish runs on the CPU); cuda "
                         "fails at once with the reason when no GPU or CUDA build is present")
     p.add_argument("--no-picture", action="store_true", help="do not write drape.png")
+    add_force_argument(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
 
@@ -86,14 +89,9 @@ def _positive(name: str, value: float, allow_zero: bool = False) -> float:
 
 
 def run(args) -> int:
-    from ..body import build_sdf, load_body
+    from ..body import load_body
     from ..device import resolve_device
-    from ..fileio import atomic_write_text
-    from ..mesh import build_sewn_mesh, write_obj
     from ..pattern import load_pattern
-    from ..sim import Fabric, SimSettings, Simulator
-    from ..sim.dressing import initial_positions
-    from ..sim.multilevel import drape_coarse_to_fine
 
     resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
     _positive("--edge-length", args.edge_length)
@@ -103,19 +101,30 @@ def run(args) -> int:
     if args.max_iterations is not None and args.max_iterations < 0:
         raise SeamfitError(f"--max-iterations must be >= 0, got {args.max_iterations}")
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise SeamfitError(f"{out}: exists and is not a folder")
+    t0 = time.perf_counter()
+    pattern = load_pattern(args.pattern)
+    body = load_body(args.body)
+    with OutputSet(out, inputs=[args.pattern, args.body], force=args.force) as tmp:
+        return _drape(args, pattern, body, tmp, out, t0)
+
+
+def _drape(args, pattern, body, tmp: Path, out: Path, t0: float) -> int:
+    """Mesh, dress and settle; write the set into ``tmp`` (moved to ``out`` afterwards)."""
+    from ..body import build_sdf
+    from ..device import resolve_device
+    from ..fileio import atomic_write_text
+    from ..mesh import build_sewn_mesh, write_obj
+    from ..sim import Fabric, SimSettings, Simulator
+    from ..sim.dressing import initial_positions
+    from ..sim.multilevel import drape_coarse_to_fine
 
     def say(msg: str) -> None:
         if not args.quiet:
             print(msg, file=sys.stderr, flush=True)
 
-    t0 = time.perf_counter()
-    pattern = load_pattern(args.pattern)
     mesh = build_sewn_mesh(pattern, args.edge_length)
     say(f"mesh: {mesh.n_vertices} vertices, {len(mesh.triangles)} triangles, "
         f"{len(mesh.sewing_pairs)} sewing pairs")
-    body = load_body(args.body)
     sdf = build_sdf(body, spacing=args.sdf_spacing)
     say(f"body SDF: {'x'.join(str(d) for d in sdf.values.shape[::-1])} nodes at {sdf.spacing * 1000:g} mm")
     fabric = Fabric(stretch_stiffness=args.stretch_stiffness, sewing_stiffness=args.sewing_stiffness,
@@ -146,7 +155,7 @@ def run(args) -> int:
         result = sim.drape(x0, progress=progress)
     else:
         result = drape_coarse_to_fine(sim, pattern, mode=args.dress, progress=progress)
-    obj = write_obj(out / "garment.obj", mesh, positions=result.x)
+    obj = write_obj(tmp / "garment.obj", mesh, positions=result.x)
     report = {
         "pattern": str(args.pattern),
         "body": str(args.body),
@@ -170,11 +179,11 @@ def run(args) -> int:
     }
     if not args.no_picture:
         from ..sim.render import render_drape
-        png = render_drape(out / "drape.png", result.x, mesh.triangles, mesh.triangle_panel,
+        png = render_drape(tmp / "drape.png", result.x, mesh.triangles, mesh.triangle_panel,
                            body.vertices, body.faces,
                            title=f"{pattern.garment_id or args.pattern.stem} on {args.body.stem}")
         report["files"]["picture"] = png.name
-    atomic_write_text(out / "report.json", json.dumps(report, indent=1) + "\n")
+    atomic_write_text(tmp / "report.json", json.dumps(report, indent=1) + "\n")
     say(f"{'converged' if result.converged else 'NOT converged'}: {result.iterations} iterations, "
         f"{result.seconds:.1f} s, residual {result.residual:.2e}, max seam gap {result.max_sewing_gap_mm:.2f} mm, "
         f"min phi {result.min_phi_mm:.2f} mm -> {out}")

@@ -1,6 +1,7 @@
 """``seamfit grade PATTERN --base-body B0 --target-body B1 --out DIR``: the main job.
 
-Writes, all new files in DIR (the input pattern is never touched):
+Writes, as one set (into a temporary folder beside DIR, then moved into place; an
+existing non-empty DIR is replaced whole, only with --force; no input is ever touched):
   pattern.json   the adjusted pattern (sewpat-1, same panels, stitches and landmarks,
                  curves refitted to the moved boundary)
   pattern.svg    the graded nest: base pattern in black, adjusted pattern in colour
@@ -19,7 +20,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..errors import SeamfitError
+from ..output_set import OutputSet, add_force_argument
 
 EPILOG = """\
 Presets (strengths fix, cur, dis, smo, str, pos from the paper's Table 1; seam, the
@@ -89,6 +90,7 @@ def register(subparsers) -> None:
                         "(default %(default)s; 0: to 1e-8 everywhere, as the CPU's direct solve, 4x slower "
                         "at 60K triangles, docs/gpu.md)")
     p.add_argument("--no-picture", action="store_true", help="do not write drape.png and pattern.png")
+    add_force_argument(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
 
@@ -96,16 +98,12 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from ..body import load_body
     from ..device import resolve_device
-    from ..fileio import atomic_write_text, json_default
-    from ..mesh import write_obj
-    from ..opt.grade import GradeSettings, grade
+    from ..opt.grade import GradeSettings
     from ..opt.presets import preset
-    from ..pattern import load_pattern, save_pattern, write_svg
+    from ..pattern import load_pattern
 
     resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise SeamfitError(f"{out}: exists and is not a folder")
     strengths = preset(args.preset).strengths
     overrides = {k: getattr(args, k) for k in ("fix", "cur", "dis", "smo", "str", "pos", "seam") if getattr(args, k) is not None}
     if overrides:
@@ -134,6 +132,22 @@ def run(args) -> int:
     base_pattern = load_pattern(args.pattern)
     base_body = load_body(args.base_body)
     target_body = load_body(args.target_body)
+    inputs = [args.pattern, args.base_body, args.target_body, args.truth]
+    with OutputSet(out, inputs=inputs, force=args.force) as tmp:
+        report = _grade(args, settings, progress, base_pattern, base_body, target_body, tmp)
+    if not args.quiet:
+        pics = "" if args.no_picture else ", pattern.png, drape.png"
+        print(f"wrote {out}/pattern.json, pattern.svg, garment.obj, report.json{pics}", file=sys.stderr)
+    return 0 if report["converged"] else 1
+
+
+def _grade(args, settings, progress, base_pattern, base_body, target_body, tmp: Path) -> dict:
+    """Grade, then write the set into ``tmp`` (moved to --out afterwards); the report."""
+    from ..fileio import atomic_write_text, json_default
+    from ..mesh import write_obj
+    from ..opt.grade import grade
+    from ..pattern import load_pattern, save_pattern, write_svg
+
     result = grade(base_pattern, base_body, target_body, settings, progress=progress)
     report = dict(result.report)
     report["inputs"] = {"pattern": str(args.pattern), "base_body": str(args.base_body),
@@ -145,22 +159,21 @@ def run(args) -> int:
                               "graded": landmark_errors(result.pattern, truth).to_dict(),
                               "base_unchanged": baseline_errors(base_pattern, truth).to_dict()}
 
-    out.mkdir(parents=True, exist_ok=True)
     result.pattern.body_id = target_body.name
-    save_pattern(result.pattern, out / "pattern.json", overwrite=True)
-    write_svg(out / "pattern.svg", [base_pattern, result.pattern],
+    save_pattern(result.pattern, tmp / "pattern.json")
+    write_svg(tmp / "pattern.svg", [base_pattern, result.pattern],
               labels=[f"base ({base_body.name})", f"graded ({target_body.name})"])
-    write_obj(out / "garment.obj", _with_uv(result.mesh, result.uv_cm), positions=result.x)
+    write_obj(tmp / "garment.obj", _with_uv(result.mesh, result.uv_cm), positions=result.x)
     if not args.no_picture:
         from ..pattern.nest_png import render_nest_png
         from ..sim.render import render_drape
-        render_nest_png(out / "pattern.png", [base_pattern, result.pattern],
+        render_nest_png(tmp / "pattern.png", [base_pattern, result.pattern],
                         labels=[f"base ({base_body.name})", f"graded ({target_body.name})"],
                         title=f"{base_pattern.garment_id or args.pattern.stem}: graded nest")
-        render_drape(out / "drape.png", result.x, result.mesh.triangles, result.mesh.triangle_panel,
+        render_drape(tmp / "drape.png", result.x, result.mesh.triangles, result.mesh.triangle_panel,
                      body_vertices=target_body.vertices, body_faces=target_body.faces,
                      title=f"{base_pattern.garment_id or args.pattern.stem} graded to {target_body.name}")
-    atomic_write_text(out / "report.json", json.dumps(report, indent=1, default=json_default) + "\n")
+    atomic_write_text(tmp / "report.json", json.dumps(report, indent=1, default=json_default) + "\n")
     if (report.get("sdf") or {}).get("warning"):  # even with -q: collisions may have been missed
         print(f"seamfit grade: warning: {report['sdf']['warning']}", file=sys.stderr)
     if not args.quiet:
@@ -172,9 +185,7 @@ def run(args) -> int:
         if "accuracy" in r:
             print(f"landmark error vs truth: max {r['accuracy']['graded']['max_cm']:.2f} cm "
                   f"(unchanged base: {r['accuracy']['base_unchanged']['max_cm']:.2f} cm)", file=sys.stderr)
-        pics = "" if args.no_picture else ", pattern.png, drape.png"
-        print(f"wrote {out}/pattern.json, pattern.svg, garment.obj, report.json{pics}", file=sys.stderr)
-    return 0 if report["converged"] else 1
+    return report
 
 
 def _print_time_split(r: dict) -> None:

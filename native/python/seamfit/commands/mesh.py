@@ -2,7 +2,7 @@
 
 Writes DIR/mesh.obj (panels at their 3D placement, metres; vt = pattern cm; one group per
 panel), DIR/pattern.svg (the flat pattern at true scale) and DIR/report.json (sizes, quality,
-time). Every file is written atomically.
+time). The set is written into a temporary folder beside DIR and moved into place whole.
 """
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 from ..errors import SeamfitError
+from ..output_set import OutputSet, add_force_argument
 
 EPILOG = """\
 PATTERN is a sewpat-1 pattern or a GarmentCode *_specification.json (detected from content).
@@ -35,6 +36,7 @@ def register(subparsers) -> None:
                    help="output folder (created if missing): mesh.obj, pattern.svg, report.json")
     p.add_argument("--edge-length", metavar="CM", type=float, default=DEFAULT_EDGE_LENGTH_CM,
                    help=f"target triangle edge length in cm (default {DEFAULT_EDGE_LENGTH_CM})")
+    add_force_argument(p)
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=run)
 
@@ -48,42 +50,41 @@ def run(args) -> int:
     if not (math.isfinite(h) and h > 0):
         raise SeamfitError(f"--edge-length must be a positive number of cm, got {h}")
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise SeamfitError(f"{out}: exists and is not a folder")
     t0 = time.perf_counter()
     pattern = load_pattern(args.pattern)
     t_load = time.perf_counter() - t0
-    mesh = build_sewn_mesh(pattern, h)
-    obj = write_obj(out / "mesh.obj", mesh)
-    svg = write_svg(out / "pattern.svg", pattern)
-    stats = mesh.stats()
-    report = {
-        "pattern": str(args.pattern),
-        "garment_id": pattern.garment_id,
-        "body_id": pattern.body_id,
-        "edge_length_cm": h,
-        "panels": stats["panels"],
-        "vertices": stats["vertices"],
-        "boundary_vertices": stats["boundary_vertices"],
-        "triangles": stats["triangles"],
-        "stitches": stats["stitches"],
-        "sewing_pairs": stats["sewing_pairs"],
-        "max_seam_count_mismatch": stats["max_seam_count_mismatch"],
-        "min_angle_deg": stats["min_angle_deg"],
-        "min_angle_interior_deg": stats["min_angle_interior_deg"],
-        "sharp_corners": stats["sharp_corners"],
-        "area_error": stats["area_error"],
-        "max_area_error": stats["max_area_error"],
-        "per_panel": [
-            {"name": name, "vertices": int((mesh.vertex_panel == k).sum()),
-             "boundary_vertices": int(len(mesh.boundary_loops[k])),
-             "triangles": int((mesh.triangle_panel == k).sum())}
-            for k, name in enumerate(mesh.panel_names)],
-        "cache_key": mesh.cache_key(),
-        "seconds": {"load": t_load, "mesh": stats["seconds"], "total": time.perf_counter() - t0},
-        "files": {"obj": obj.name, "svg": svg.name},
-    }
-    atomic_write_text(out / "report.json", json.dumps(report, indent=1) + "\n")
+    with OutputSet(out, inputs=[args.pattern], force=args.force) as tmp:
+        mesh = build_sewn_mesh(pattern, h)
+        obj = write_obj(tmp / "mesh.obj", mesh)
+        svg = write_svg(tmp / "pattern.svg", pattern)
+        stats = mesh.stats()
+        report = {
+            "pattern": str(args.pattern),
+            "garment_id": pattern.garment_id,
+            "body_id": pattern.body_id,
+            "edge_length_cm": h,
+            "panels": stats["panels"],
+            "vertices": stats["vertices"],
+            "boundary_vertices": stats["boundary_vertices"],
+            "triangles": stats["triangles"],
+            "stitches": stats["stitches"],
+            "sewing_pairs": stats["sewing_pairs"],
+            "max_seam_count_mismatch": stats["max_seam_count_mismatch"],
+            "min_angle_deg": stats["min_angle_deg"],
+            "min_angle_interior_deg": stats["min_angle_interior_deg"],
+            "sharp_corners": stats["sharp_corners"],
+            "area_error": stats["area_error"],
+            "max_area_error": stats["max_area_error"],
+            "per_panel": [
+                {"name": name, "vertices": int((mesh.vertex_panel == k).sum()),
+                 "boundary_vertices": int(len(mesh.boundary_loops[k])),
+                 "triangles": int((mesh.triangle_panel == k).sum())}
+                for k, name in enumerate(mesh.panel_names)],
+            "cache_key": mesh.cache_key(),
+            "seconds": {"load": t_load, "mesh": stats["seconds"], "total": time.perf_counter() - t0},
+            "files": {"obj": obj.name, "svg": svg.name},
+        }
+        atomic_write_text(tmp / "report.json", json.dumps(report, indent=1) + "\n")
     if not args.quiet:
         print(f"{args.pattern}: {stats['panels']} panels, {stats['vertices']} vertices, "
               f"{stats['triangles']} triangles, {stats['stitches']} stitches, "

@@ -64,12 +64,16 @@ def run(args) -> int:
 
 
 def _run_pattern(args) -> int:
+    from ..output_set import check_not_an_input
     from ..pattern import save_pattern, validate_pattern, write_svg
     from ..pattern.io import read_pattern_file
     from ..pattern.validate import fix_pattern
 
     if args.seam_tolerance < 0 or not 0 <= args.seam_tolerance_rel < 1:
         raise SeamfitError("--seam-tolerance must be >= 0 and --seam-tolerance-rel in [0, 1)")
+    for out in (args.fix, args.svg):   # neither may replace the file being checked
+        if out is not None:
+            check_not_an_input(out, [args.file])
     pattern, fmt = read_pattern_file(args.file)
     report = validate_pattern(pattern, seam_tolerance_cm=args.seam_tolerance,
                               seam_tolerance_rel=args.seam_tolerance_rel)

@@ -10,6 +10,7 @@ thread; Blender runs solves in a worker thread.
 from __future__ import annotations
 
 import itertools
+import signal
 import threading
 from contextlib import contextmanager
 
@@ -43,7 +44,8 @@ def gmsh_session():
     with _lock:
         owner = not gmsh.isInitialized()
         if owner:
-            gmsh.initialize(readConfigFiles=False, interruptible=False)
+            with _sigterm_kept():
+                gmsh.initialize(readConfigFiles=False, interruptible=False)
         try:
             gmsh.option.setNumber("General.Terminal", 0)
             gmsh.option.setNumber("General.Verbosity", 0)
@@ -51,6 +53,18 @@ def gmsh_session():
         finally:
             if owner:
                 gmsh.finalize()
+
+
+@contextmanager
+def _sigterm_kept():
+    """gmsh's first initialize in a process resets SIGTERM to the default action (die at once),
+    which would skip the CLI's cleanup of temporary outputs; put back the handler Python had."""
+    before = signal.getsignal(signal.SIGTERM)
+    try:
+        yield
+    finally:
+        if callable(before) and threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, before)
 
 
 def triangulate_polygon(boundary_uv: np.ndarray, edge_length: float, *,

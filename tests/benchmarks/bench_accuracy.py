@@ -78,6 +78,8 @@ def grade_kwargs(args, garment: str) -> dict:
         v = getattr(args, opt)
         if v is not None:
             kw[field] = v
+    if getattr(args, "start", None) is not None:
+        kw["start"] = args.start
     if getattr(args, "seam", None) is not None:
         from dataclasses import asdict
 
@@ -237,6 +239,7 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--checkpoint-every", type=int, default=None)
     r.add_argument("--inner-iterations", type=int, default=None)
     r.add_argument("--seam", type=float, default=None, help="seam-length strength (default: the preset's)")
+    r.add_argument("--start", default=None, help="theta^(0) and anchor: base | level (default: GradeSettings)")
     r.add_argument("--time-budget", type=float, default=None, help="seconds per grading (default none)")
     r.add_argument("--case-timeout", type=float, default=None, help="kill a case after this many seconds")
     r.add_argument("--no-baseline-ease", action="store_true", help="skip draping the two baselines")

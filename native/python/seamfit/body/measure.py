@@ -53,6 +53,15 @@ class _Slicer:
         pts = self.V[band] if band.any() else self.V
         self.axis = 0.5 * (pts[:, :2].min(axis=0) + pts[:, :2].max(axis=0))
         self._cache: dict = {}
+        self._cuts: dict = {}
+
+    def cut(self, z: float):
+        """Where the plane at height z crosses the mesh's edges: vertex ids a, b and t
+        (the point is V[a] + t (V[b] - V[a])), and the points' xy; on a body of the same
+        topology the same (a, b, t) give the corresponding curve."""
+        self.loops(z)
+        key = round(z, 7)
+        return self._cuts.get(key, (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 2))))
 
     def loops(self, z: float) -> list[np.ndarray]:
         """Cross-section at height z: one (k, 2, 2) array of xy segments per loop."""
@@ -88,6 +97,7 @@ class _Slicer:
         za, zb = self.V[a, 2], self.V[b, 2]
         t = (z - za) / (zb - za)
         P = self.V[a, :2] + t[:, None] * (self.V[b, :2] - self.V[a, :2])
+        self._cuts[key] = (a, b, t, P)
         m = len(first)
         s0, s1 = inv[:m], inv[m:]
         ncomp, lab = connected_components(coo_matrix((np.ones(m), (s0, s1)), shape=(len(uniq), len(uniq))),

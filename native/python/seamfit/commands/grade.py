@@ -40,7 +40,7 @@ See docs/method.md for the method, docs/grading.md for the baselines and docs/cl
 
 
 def register(subparsers) -> None:
-    from ..opt.grade import METHODS, GradeSettings
+    from ..opt.grade import METHODS, STARTS, GradeSettings
     from ..opt.presets import PRESETS
     d = GradeSettings()
     p = subparsers.add_parser(
@@ -57,6 +57,10 @@ def register(subparsers) -> None:
     p.add_argument("--method", choices=METHODS, default=d.method,
                    help=f"search: {', '.join(METHODS)} (default {d.method}; the other two are baselines "
                         "for comparison, see below)")
+    p.add_argument("--start", choices=STARTS, default=d.start,
+                   help="where the search starts and what R^fix / R^cur hold it to: level (the base pattern "
+                        "stretched level by level by how much the body grew there) or base (the paper's start "
+                        f"from the base pattern); default {d.start}, see docs/method.md")
     p.add_argument("--preset", choices=sorted(PRESETS), default=d.preset, help=f"strength preset (default {d.preset})")
     for name in ("fix", "cur", "dis", "smo", "str", "pos", "seam"):
         p.add_argument(f"--{name}", type=float, default=None, metavar="DELTA",
@@ -109,7 +113,8 @@ def run(args) -> int:
     if overrides:
         from dataclasses import replace
         strengths = replace(strengths, **overrides)
-    settings = GradeSettings(preset=args.preset, strengths=strengths, method=args.method, edge_length_cm=args.edge_length,
+    settings = GradeSettings(preset=args.preset, strengths=strengths, method=args.method, start=args.start,
+                             edge_length_cm=args.edge_length,
                              sdf_spacing=args.sdf_spacing, sdf_region=args.sdf_region,
                              sdf_region_margin=args.sdf_margin, inner_iterations=args.inner_iterations,
                              checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,

@@ -21,6 +21,7 @@ from .costs import CostSet, Strengths
 from .objective import Objective
 from .parametrization import Parametrization
 from .regularizers import Regularizers
+from .level_scale import level_scaled_pattern
 from .seam import SeamLength
 from .sdf_region import (GARMENT_REGION_MARGIN, body_field, garment_outside_field, placement_z_range,
                          resolve_sdf_region)
@@ -40,7 +41,7 @@ def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, 
     physics = {k: v for k, v in asdict(settings).items() if k != "device"}
     key = content_key("base-drape-2", mesh.cache_key(), body.vertices, body.faces, float(sdf.spacing),
                       asdict(fabric), physics)
-    hit = None if refresh else load_arrays("drape", key)
+    hit = None if refresh else load_arrays("drape", key, expect={"x": mesh.x0.shape})
     if hit is not None and hit["x"].shape == mesh.x0.shape:
         return hit["x"], {"cached": True, "key": key, **{k: float(hit[k]) for k in ("residual", "seconds")}}
     sim = Simulator(mesh, sdf, fabric, settings)
@@ -189,10 +190,17 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     param = Parametrization(mesh)
     if device == "cuda":
         param.use_device("cuda")
+    # The measurement-aware start: theta^(0) and the anchor of R^fix and R^cur
+    # (docs/method.md, "Level scaling"); "base" is the paper's (Section 7 from theta-bar).
+    theta_level = None
+    if getattr(settings, "start", "level") == "level":
+        tell(stage="level scaling")
+        theta_level = param.theta_of(level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf))
     # R^fix shapes the preconditioner; in f it would pull the pattern back to the base
     # (docs/grading.md, "R^fix in the preconditioner only").
     regs = Regularizers(param, strengths.fix, strengths.cur,
-                        objective_fix=None if getattr(settings, "fix_in_objective", True) else 0.0)
+                        objective_fix=None if getattr(settings, "fix_in_objective", True) else 0.0,
+                        anchor=theta_level)
     seam = SeamLength(param, mesh, strengths.seam)
     if seam.active and getattr(settings, "seam_in_preconditioner", True):
         regs.add_to_preconditioner(seam.gauss_newton())
@@ -218,6 +226,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         objective=Objective(param, regs, costs, sim, adjoint, seam),
         exact_tolerance=exact_tolerance, progress=progress, t_start=t_start)
     ctx.extra["sdf"] = {"requested": region, "base": base_field, "target": target_field}
+    ctx.extra["theta_level"] = theta_level
     if settings.evaluate_base_pattern:
         rb = ctx.start_from_base_pattern()
         ctx.objective_base, ctx.terms_base = ctx.objective.objective(rb.x, param.theta_bar)

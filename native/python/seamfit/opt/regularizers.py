@@ -12,7 +12,8 @@ CORNER_WEIGHT = 0.1
 
 
 class Regularizers:
-    """R(theta) = R^fix + R^cur over the boundary parameters of a ``Parametrization``.
+    """R(theta) = R^fix + R^cur over the boundary parameters of a ``Parametrization``,
+    measured from ``anchor`` (default the base pattern theta-bar).
 
     R^cur's T_i is the rotation-and-uniform-scale taking the base chord
     pbar_k - pbar_j (the outline neighbours of vertex i) to the current chord
@@ -35,7 +36,7 @@ class Regularizers:
     GPU_MAX_BYTES = 512 << 20
 
     def __init__(self, param, delta_fix: float, delta_cur: float, corner_weight: float = CORNER_WEIGHT, *,
-                 objective_fix: float | None = None):
+                 objective_fix: float | None = None, anchor=None):
         a = param.arrays
         self.param = param
         weight = np.where(a.corner[param.boundary_ids], float(corner_weight), 1.0)
@@ -46,12 +47,17 @@ class Regularizers:
                 raise PatternError("a boundary loop holds a vertex not flagged as boundary")
             loops.append([int(i) for i in idx])
         self.weight = weight
-        self._native = core().Regularizers(param.theta_bar, loops, weight)
+        # The pattern R^fix pulls towards and whose curves R^cur keeps: the base pattern
+        # (the paper), or a measurement-aware start (seamfit.opt.level_scale).
+        self.anchor = np.ascontiguousarray(param.theta_bar if anchor is None else anchor, dtype=float).reshape(-1, 2)
+        if self.anchor.shape != param.theta_bar.shape:
+            raise ValueError(f"anchor must have shape {param.theta_bar.shape}, got {self.anchor.shape}")
+        self._native = core().Regularizers(self.anchor, loops, weight)
         # P lives in its own instance when the objective's R^fix differs from P's.
         self._precond = self._native
         self._extra = None   # constant block added to P (add_to_preconditioner)
         if objective_fix is not None and float(objective_fix) != float(delta_fix):
-            self._precond = core().Regularizers(param.theta_bar, loops, weight)
+            self._precond = core().Regularizers(self.anchor, loops, weight)
         self.set_strengths(delta_fix, delta_cur, objective_fix=objective_fix)
         self._gpu = None
         self._out = Buffers()  # DeviceArray results

@@ -1,0 +1,219 @@
+"""Measurement-aware start: the base pattern stretched, level by level, by how much the
+body grew there (docs/method.md, "Level scaling").
+
+Drafting systems hold the ease at each tape-measure level: a garment girth grows by what
+the body girth it encloses grew, and lengths follow the body's landmark heights. Read off
+the base garment draped on the base body (x-bar), that gives every triangle of the pattern
+a target stretch:
+
+* around the body (across the pattern's "down", the vertical pulled back into the
+  pattern through the drape), by sx(z) = 1 + dH(z) / G(z): G is the garment's tape girth at the
+  triangle's height z on the base body, dH how much the body girth the garment encloses
+  grew between the bodies. Additive, as ease is: a circle skirt's hem grows by the waist's
+  change, not in proportion to it;
+* across that direction, by sy(z), the slope at z of the piecewise linear map that takes
+  the base body's levels (soles, crotch, hip, waist, bust, armpit, crown) to the target's.
+
+Where the garment hangs free of the body (a skirt below the seat, a flare) the enclosed
+girth is the one it hangs from: dH comes from the nearest level above where the garment
+touches the body. The pattern whose triangle gradients best match those stretches (a
+sparse least-squares solve per panel, the same kind of solve as a Poisson problem) is the
+level-scaled pattern. Equal bodies give the base pattern back exactly.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import spsolve
+from scipy.spatial import ConvexHull, Delaunay, QhullError
+
+from ..body.measure import _Slicer, body_measurements
+from .costs import sample_sdf
+from .fit import mesh_cross_section
+
+# A garment vertex this close to the body (m) is held by it (the drape rests on the
+# contact barrier, about 1-3 mm out; hanging cloth is centimetres away).
+CONTACT_M = 0.005
+LEVEL_STEP_M = 0.01     # girth profile sampling
+
+
+def level_map(base_body, target_body) -> tuple[np.ndarray, np.ndarray]:
+    """Knots (z_base, z_target) of the monotone piecewise linear map between the two
+    bodies' levels: soles, waist, armpit, crown."""
+    def knots(body):
+        m = body_measurements(body)
+        lv = m["levels_z_m"]
+        z0 = float(body.vertices[:, 2].min())
+        z1 = float(body.vertices[:, 2].max())
+        # The hip and the bust are fullest-girth levels, which wander by centimetres
+        # between bodies of similar shape; the crotch, the waist and the armpit are
+        # where the body's outline changes, and hold.
+        return [z0, lv["waist"], lv["armpit"], z1]
+    zb, zt = np.array(knots(base_body)), np.array(knots(target_body))
+    # Keep only knots that rise on both bodies, so the map stays monotone.
+    keep = [0]
+    for k in range(1, len(zb)):
+        if zb[k] > zb[keep[-1]] + 1e-3 and zt[k] > zt[keep[-1]] + 1e-3:
+            keep.append(k)
+    return zb[keep], zt[keep]
+
+
+def _hull(points):
+    try:
+        return ConvexHull(points)
+    except (QhullError, ValueError):
+        return None
+
+
+def _hull_perimeter(h) -> float:
+    p = h.points[h.vertices]
+    return float(np.linalg.norm(np.diff(np.vstack([p, p[:1]]), axis=0), axis=1).sum())
+
+
+def _enclosed_growth(slicer: _Slicer, target_v: np.ndarray, z: float, garment_pts: np.ndarray):
+    """(garment tape girth at z, tape girth of the body section inside the garment's hull,
+    that section's girth on the target body): the target's section is the same edge
+    crossings on the target's vertices (both bodies share one mesh topology, as the
+    transfer of Eq. 15 needs), so no level has to be matched. NaN where missing."""
+    if len(garment_pts) < 3:
+        return np.nan, np.nan, np.nan
+    hg = _hull(garment_pts)
+    if hg is None:
+        return np.nan, np.nan, np.nan
+    a, b, t, pts = slicer.cut(z)
+    g = _hull_perimeter(hg)
+    if len(pts) < 3:
+        return g, np.nan, np.nan
+    inside = Delaunay(garment_pts[hg.vertices]).find_simplex(pts) >= 0
+    if inside.sum() < 3:
+        return g, np.nan, np.nan
+    a, b, t = a[inside], b[inside], t[inside]
+    q = target_v[a, :2] + t[:, None] * (target_v[b, :2] - target_v[a, :2])
+    h0, h1 = _hull(pts[inside]), _hull(q)
+    if h0 is None or h1 is None:
+        return g, np.nan, np.nan
+    return g, _hull_perimeter(h0), _hull_perimeter(h1)
+
+
+def girth_profile(mesh, xbar, base_body, target_body, base_sdf) -> dict:
+    """Per level z of the base garment: G (garment girth), dH (growth of the enclosed body
+    girth, carried down from the nearest supported level above where the garment hangs)
+    and sx = 1 + dH / G."""
+    tri = np.asarray(mesh.triangles)
+    s0 = _Slicer(base_body)
+    tv = np.asarray(target_body.vertices, dtype=float)
+    zmin, zmax = float(xbar[:, 2].min()), float(xbar[:, 2].max())
+    zs = np.arange(zmin + 0.5 * LEVEL_STEP_M, zmax, LEVEL_STEP_M)
+    if len(zs) == 0:
+        zs = np.array([0.5 * (zmin + zmax)])
+    phi = sample_sdf(base_sdf, xbar)[0]
+    touching = xbar[phi < CONTACT_M, 2]
+    G = np.full(len(zs), np.nan)
+    dH = np.full(len(zs), np.nan)
+    for k, z in enumerate(zs):
+        g0, h0, h1 = _enclosed_growth(s0, tv, z, mesh_cross_section(xbar, tri, z))
+        G[k] = g0
+        if np.any(np.abs(touching - z) < LEVEL_STEP_M) and np.isfinite(h1):
+            dH[k] = h1 - h0
+    # Below the hip a garment that closes around both legs (its section crosses the
+    # body's midline between them: a skirt, a dress) hangs from the hip, as a straight
+    # skirt's hem is drafted as wide as its hip; trouser legs follow their own level.
+    hip_z = float(body_measurements(base_body)["levels_z_m"]["hip"])
+    k_hip = int(np.argmin(np.abs(zs - hip_z)))
+    if np.isfinite(dH[k_hip]):
+        midline_x = float(s0.axis[0])
+        window = max(0.02, 0.01 * float(mesh.edge_length_cm))
+        for k in range(k_hip):
+            pts = mesh_cross_section(xbar, tri, zs[k])
+            if len(pts) and np.any(np.abs(pts[:, 0] - midline_x) < window):
+                dH[k] = dH[k_hip] if not np.isfinite(dH[k]) else max(dH[k], dH[k_hip])
+    known = np.flatnonzero(np.isfinite(dH))
+    if len(known) == 0:
+        dH[:] = 0.0
+    else:
+        for k in range(len(zs)):
+            if np.isfinite(dH[k]):
+                continue
+            above = known[known > k]
+            dH[k] = dH[above[0]] if len(above) else dH[known[-1]]
+    ok = np.isfinite(G) & (G > 0)
+    sx = np.ones(len(zs))
+    sx[ok] = 1.0 + dH[ok] / G[ok]
+    return {"z": zs, "G": G, "dH": dH, "sx": sx}
+
+
+def _stretch_targets(mesh, xbar, profile, zmap):
+    """Per triangle the 2x2 target gradient S_t of the new pattern against the base one."""
+    tri = np.asarray(mesh.triangles)
+    p = 0.01 * np.asarray(mesh.uv_cm, dtype=float)
+    zb, zt = zmap
+    X = xbar[tri]                                   # (T, 3, 3)
+    P = p[tri]                                      # (T, 3, 2)
+    E3 = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]], axis=2)   # (T, 3, 2)
+    E2 = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)   # (T, 2, 2)
+    F = E3 @ np.linalg.inv(E2)                      # pattern -> 3D, (T, 3, 2)
+    c = X.mean(axis=1)
+    z = c[:, 2]
+    sx = np.interp(z, profile["z"], profile["sx"])
+    h = LEVEL_STEP_M
+    sy = (np.interp(z + h, zb, zt) - np.interp(z - h, zb, zt)) / (2 * h)
+    # The vertical lies in the cloth's plane wherever it hangs, folds included, so the
+    # pattern's "down" is the pullback of the vertical; the tape runs across it.
+    n = np.cross(E3[:, :, 0], E3[:, :, 1])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    up = np.array([0.0, 0.0, 1.0])
+    v3 = up[None, :] - n[:, 2:3] * n
+    FtF = np.einsum("tki,tkj->tij", F, F)
+    v2 = np.linalg.solve(FtF, np.einsum("tki,tk->ti", F, v3)[:, :, None])[:, :, 0]
+    # Where the cloth lies nearly flat (a shoulder), fall back to the grain: v is the
+    # grain, along the body, on every panel.
+    weak = np.linalg.norm(v3, axis=1) < 0.3
+    v2[weak] = [0.0, 1.0]
+    v2 /= np.maximum(np.linalg.norm(v2, axis=1, keepdims=True), 1e-300)
+    d = np.column_stack([v2[:, 1], -v2[:, 0]])
+    e = np.column_stack([-d[:, 1], d[:, 0]])
+    eye = np.eye(2)[None]
+    S = eye + (sx - 1)[:, None, None] * np.einsum("ti,tj->tij", d, d) \
+        + (sy - 1)[:, None, None] * np.einsum("ti,tj->tij", e, e)
+    return S, E2
+
+
+def _solve_gradients(mesh, S, E2) -> np.ndarray:
+    """The pattern (N, 2) m whose per-triangle gradient best matches S (area-weighted
+    least squares), each panel keeping its centroid."""
+    tri = np.asarray(mesh.triangles)
+    p = 0.01 * np.asarray(mesh.uv_cm, dtype=float)
+    n, T = len(p), len(tri)
+    area = 0.5 * np.abs(np.linalg.det(E2))
+    Dt = np.linalg.inv(E2).transpose(0, 2, 1) @ np.array([[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]])  # (T, 2, 3)
+    w = np.sqrt(area)
+    rows = np.repeat(np.arange(2 * T), 3)
+    cols = np.repeat(tri, 2, axis=0).ravel()
+    vals = (w[:, None, None] * Dt).reshape(-1)
+    A = sp.csr_matrix((vals, (rows, cols)), shape=(2 * T, n))
+    B = (w[:, None, None] * S.transpose(0, 2, 1)).reshape(2 * T, 2)  # row (t, j), column c = S[c, j]
+    # Pin one vertex per panel (the problem is translation-invariant per panel).
+    vp = np.asarray(mesh.vertex_panel)
+    pins = np.array([np.flatnonzero(vp == k)[0] for k in range(len(mesh.panel_names))])
+    big = 1e3 * float(w.max())
+    Apin = sp.csr_matrix((np.full(len(pins), big), (np.arange(len(pins)), pins)), shape=(len(pins), n))
+    M = sp.vstack([A, Apin]).tocsr()
+    rhs = np.vstack([B, big * p[pins]])
+    out = spsolve((M.T @ M).tocsc(), M.T @ rhs)
+    out = np.asarray(out).reshape(n, 2)
+    for k in range(len(mesh.panel_names)):
+        idx = vp == k
+        out[idx] += p[idx].mean(axis=0) - out[idx].mean(axis=0)
+    return out
+
+
+def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return_info: bool = False):
+    """p-hat (N, 2) m: the base pattern stretched level by level (module docstring)."""
+    xbar = np.asarray(xbar, dtype=float)
+    zmap = level_map(base_body, target_body)
+    prof = girth_profile(mesh, xbar, base_body, target_body, base_sdf)
+    S, E2 = _stretch_targets(mesh, xbar, prof, zmap)
+    p = _solve_gradients(mesh, S, E2)
+    if return_info:
+        return p, {"levels": zmap, "profile": prof}
+    return p

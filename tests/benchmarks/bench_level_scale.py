@@ -1,0 +1,88 @@
+"""Level scaling (seamfit.opt.level_scale) against proportional scaling and the unchanged
+pattern, on every shared garment x body case: landmark error against the drafting
+system's own pattern for the target body. No optimization: this scores the start.
+
+    python tests/benchmarks/bench_level_scale.py --data ../shared/data [--garments a,b] [--bodies x,y]
+        [--edge-length 3] [--out docs/level_scale_results.json]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+from accuracy_case import body_file, measurements_cm  # noqa: E402
+
+from seamfit.body import load_body  # noqa: E402
+from seamfit.pattern import baseline_errors, landmark_errors, load_pattern  # noqa: E402
+from seamfit.pattern.scale import proportional_scale  # noqa: E402
+
+
+def level_scaled(base, b0, b1, edge_length_cm: float):
+    from seamfit.mesh import outline_from_uv
+    from seamfit.opt.grade import GradeSettings
+    from seamfit.opt.level_scale import level_scaled_pattern
+    from seamfit.opt.prepare import prepare
+    from seamfit.pattern.refit import refit_pattern
+
+    st = GradeSettings(edge_length_cm=edge_length_cm, evaluate_base_pattern=False, device="cpu")
+    ctx = prepare(base, b0, b1, st)
+    p = level_scaled_pattern(ctx.mesh, ctx.xbar, b0, b1, ctx.base_sdf)
+    return refit_pattern(base, outline_from_uv(ctx.mesh, 100.0 * p)).pattern
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--data", type=Path, default=Path(__file__).resolve().parents[3] / "shared" / "data")
+    ap.add_argument("--garments", default="")
+    ap.add_argument("--bodies", default="")
+    ap.add_argument("--edge-length", type=float, default=3.0)
+    ap.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args(argv)
+    index = json.loads((a.data / "patterns" / "index.json").read_text())
+    garments = sorted(index["garments"]) if not a.garments else a.garments.split(",")
+    rows = []
+    for g in garments:
+        bodies = sorted(p.name for p in (a.data / "patterns" / g).iterdir() if p.is_dir() and p.name != "size06")
+        if a.bodies:
+            bodies = [b for b in bodies if b in a.bodies.split(",")]
+        base = load_pattern(a.data / "patterns" / g / "size06" / "pattern.json")
+        p0 = body_file(a.data / "bodies", "size06")
+        b0 = load_body(p0)
+        m0 = measurements_cm(a.data / "bodies", p0, b0)
+        for body in bodies:
+            truth = load_pattern(a.data / "patterns" / g / body / "pattern.json")
+            p1 = body_file(a.data / "bodies", body)
+            b1 = load_body(p1)
+            m1 = measurements_cm(a.data / "bodies", p1, b1)
+            t0 = time.perf_counter()
+            row = {"garment": g, "body": body,
+                   "unchanged": baseline_errors(base, truth).max_cm,
+                   "scaled": landmark_errors(proportional_scale(base, m0, m1)[0], truth).max_cm}
+            try:
+                rep = landmark_errors(level_scaled(base, b0, b1, a.edge_length), truth)
+                row["level"], row["level_mean"] = rep.max_cm, rep.mean_cm
+            except Exception as exc:  # noqa: BLE001 - a benchmark records, never stops
+                row["level"], row["error"] = None, f"{type(exc).__name__}: {exc}"
+            row["seconds"] = time.perf_counter() - t0
+            rows.append(row)
+            print(f"{g:18s} {body:10s} unchanged {row['unchanged']:5.2f}  scaled {row['scaled']:5.2f}  "
+                  f"level {row['level'] if row['level'] is None else round(row['level'], 2)}  "
+                  f"({row['seconds']:.1f} s) {row.get('error', '')}", flush=True)
+    ok = [r for r in rows if r["level"] is not None]
+    if ok:
+        for k in ("unchanged", "scaled", "level"):
+            print(f"median {k}: {np.median([r[k] for r in ok]):.2f} cm")
+        print(f"level better than scaled in {sum(r['level'] < r['scaled'] for r in ok)} of {len(ok)}")
+    if a.out:
+        a.out.write_text(json.dumps(rows, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -2,9 +2,11 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <stdexcept>
 
 #include "bindings.hpp"
+#include "finite_check.hpp"
 #include "body/sdf_build.hpp"
 #include "body/sdf_grid.hpp"
 
@@ -115,9 +117,11 @@ void bind_body(py::module_& m) {
         if (values.size() != dims[0] * dims[1] * dims[2])
           throw std::invalid_argument("values has " + std::to_string(values.size()) + " entries, dims need " +
                                       std::to_string(dims[0] * dims[1] * dims[2]));
-        if (!(spacing > 0)) throw std::invalid_argument("spacing must be positive");
+        if (!(spacing > 0) || !std::isfinite(spacing)) throw std::invalid_argument("spacing must be positive");
+        require_finite_rows(origin.data(), 1, 3, "origin");
         need_n3(points, "points");
         const int64_t n = points.shape(0);
+        require_finite_rows(points.data(), n, 3, "points");
         py::array_t<double> phi(n);
         py::array_t<double> grad({n, int64_t(3)});
         SdfGridView g;
@@ -141,6 +145,7 @@ void bind_body(py::module_& m) {
             gr[3 * q + 2] = s.grad.z;
           }
         }
+        require_finite_samples(ph, gr, n);
         return py::make_tuple(phi, grad);
       },
       py::arg("values"), py::arg("dims"), py::arg("origin"), py::arg("spacing"), py::arg("points"),

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "finite_check.hpp"
 #include "py_cost_set.hpp"
 #include "body/sdf_grid.hpp"
 #include "opt/cost_set.hpp"
@@ -391,7 +392,10 @@ void bind_opt(py::module_& m) {
   m.def("sdf_sample_grid", [](const FArr& values, const DArr& origin, double spacing, const DArr& points) {
           check_shape(points, -1, 3, "points");
           const SdfGridView g = grid_view(values, origin, spacing);
+          require_finite_rows(origin.data(), 1, 3, "sdf origin");
+          if (!(spacing > 0) || !std::isfinite(spacing)) throw py::value_error("sdf spacing must be a positive number");
           const py::ssize_t n = points.shape(0);
+          require_finite_rows(points.data(), n, 3, "points");
           DArr phi = new_array(n, -1), grad = new_array(n, 3);
           const Vec3* p = as<Vec3>(points);
           for (py::ssize_t i = 0; i < n; ++i) {
@@ -399,6 +403,7 @@ void bind_opt(py::module_& m) {
             phi.mutable_data()[i] = s.phi;
             as_mut<Vec3>(grad)[i] = s.grad;
           }
+          require_finite_samples(phi.data(), grad.data(), n);
           return py::make_tuple(phi, grad);
         }, py::arg("values"), py::arg("origin"), py::arg("spacing"), py::arg("points"),
         "Trilinear SDF value and gradient (the interpolant the costs and the simulator use).");
@@ -406,6 +411,8 @@ void bind_opt(py::module_& m) {
   m.def("transfer_query", [](const DArr& verts, const IArr& faces, const DArr& points, double bandwidth) {
           check_shape(verts, -1, 3, "body vertices");
           check_shape(points, -1, 3, "points");
+          require_finite_rows(verts.data(), verts.shape(0), 3, "body vertices");
+          require_finite_rows(points.data(), points.shape(0), 3, "points");
           std::vector<Vec3> v(as<Vec3>(verts), as<Vec3>(verts) + verts.shape(0));
           std::vector<Vec3> q(as<Vec3>(points), as<Vec3>(points) + points.shape(0));
           const auto f = tris_from(faces);

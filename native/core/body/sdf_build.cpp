@@ -481,17 +481,24 @@ SdfBuildStats sdf_build(const double* Vin, int64_t nv, const int32_t* Fin, int64
   // ---- 2. closest-triangle propagation by plane sweeps
   // A pass walks the z planes upward (or downward): each plane first tries the
   // triangles of the plane before it, then a 2-D sweep (rows forward with +-x
-  // scans, rows backward with +-x scans) spreads them within the plane. Upward
-  // and downward passes run concurrently on two threads and meet through atomic
-  // min updates; a node only ever moves to a nearer triangle.
+  // scans, rows backward with +-x scans) spreads them within the plane. An
+  // upward and a downward pass run on two threads. The upward pass's step s
+  // writes plane s (reading s - 1), the downward's writes nz-1-s (reading nz-s):
+  // they touch a common plane only at the step c where they meet (2c = nz - 1 or
+  // nz). So steps before c run concurrently on disjoint planes, step c runs
+  // upward then downward on one thread, and the steps after c are disjoint again
+  // (upward above the middle, downward below it). Every node thus sees the same
+  // sequence of updates whatever the thread count or timing: the field is
+  // bitwise reproducible (free-running passes meeting through atomics were not).
   t0 = Clock::now();
   {
     const int64_t sy = G.nx, sz = G.nx * G.ny;
-    std::vector<int64_t> evals_per(2, 0);
+    int64_t evals_per[2] = {0, 0};
+    // Plain loads and stores: the two threads never share a plane (see above).
     auto relax = [&](int64_t src, int64_t dst, const Vec3& p, int64_t& cnt) {
-      const uint64_t s = __atomic_load_n(&cell[src], __ATOMIC_RELAXED);
+      const uint64_t s = cell[src];
       if (s == kEmpty) return;
-      uint64_t cur = __atomic_load_n(&cell[dst], __ATOMIC_RELAXED);
+      const uint64_t cur = cell[dst];
       const uint32_t t = uint32_t(s);
       if (uint32_t(cur) == t) return;
       // dist(p, t) >= dist(src, t) - h: skip triangles that cannot win.
@@ -508,41 +515,54 @@ SdfBuildStats sdf_build(const double* Vin, int64_t nv, const int32_t* Fin, int64
       }
       ++cnt;
       const uint64_t c = pack(float(std::sqrt(tri_dist2(T, p))), int32_t(t));
-      while (c < cur && !__atomic_compare_exchange_n(&cell[dst], &cur, c, true, __ATOMIC_RELAXED, __ATOMIC_RELAXED)) {
-      }
+      if (c < cur) cell[dst] = c;
     };
-    auto pass = [&](int dir, int64_t& total) {
+    // Step `step` of the pass in direction dir: plane k from plane k - dir, then
+    // the in-plane sweep.
+    auto plane_step = [&](int dir, int64_t step, int64_t& total) {
       int64_t cnt = 0;  // a local counter: a shared one would bounce between cores
-      for (int64_t step = 0; step < G.nz; ++step) {
-        const int64_t k = dir > 0 ? step : G.nz - 1 - step;
-        const double z = G.o[2] + h * double(k);
-        if (step > 0) {
-          const int64_t prev = -dir * sz;
-          for (int64_t j = 0; j < G.ny; ++j)
-            for (int64_t i = 0; i < G.nx; ++i) {
-              const int64_t id = G.idx(i, j, k);
-              relax(id + prev, id, make_vec3(G.o[0] + h * double(i), G.o[1] + h * double(j), z), cnt);
-            }
-        }
-        for (int half = 0; half < 2; ++half) {
-          for (int64_t s = 0; s < G.ny; ++s) {
-            const int64_t j = half == 0 ? s : G.ny - 1 - s;
-            const double y = G.o[1] + h * double(j);
-            const int64_t base = G.idx(0, j, k);
-            if (s > 0) {
-              const int64_t prev = half == 0 ? -sy : sy;
-              for (int64_t i = 0; i < G.nx; ++i) relax(base + i + prev, base + i, make_vec3(G.o[0] + h * double(i), y, z), cnt);
-            }
-            for (int64_t i = 1; i < G.nx; ++i) relax(base + i - 1, base + i, make_vec3(G.o[0] + h * double(i), y, z), cnt);
-            for (int64_t i = G.nx - 2; i >= 0; --i) relax(base + i + 1, base + i, make_vec3(G.o[0] + h * double(i), y, z), cnt);
+      const int64_t k = dir > 0 ? step : G.nz - 1 - step;
+      const double z = G.o[2] + h * double(k);
+      if (step > 0) {
+        const int64_t prev = -dir * sz;
+        for (int64_t j = 0; j < G.ny; ++j)
+          for (int64_t i = 0; i < G.nx; ++i) {
+            const int64_t id = G.idx(i, j, k);
+            relax(id + prev, id, make_vec3(G.o[0] + h * double(i), G.o[1] + h * double(j), z), cnt);
           }
+      }
+      for (int half = 0; half < 2; ++half) {
+        for (int64_t s = 0; s < G.ny; ++s) {
+          const int64_t j = half == 0 ? s : G.ny - 1 - s;
+          const double y = G.o[1] + h * double(j);
+          const int64_t base = G.idx(0, j, k);
+          if (s > 0) {
+            const int64_t prev = half == 0 ? -sy : sy;
+            for (int64_t i = 0; i < G.nx; ++i) relax(base + i + prev, base + i, make_vec3(G.o[0] + h * double(i), y, z), cnt);
+          }
+          for (int64_t i = 1; i < G.nx; ++i) relax(base + i - 1, base + i, make_vec3(G.o[0] + h * double(i), y, z), cnt);
+          for (int64_t i = G.nx - 2; i >= 0; --i) relax(base + i + 1, base + i, make_vec3(G.o[0] + h * double(i), y, z), cnt);
         }
       }
       total += cnt;
     };
+    const int64_t meet = G.nz / 2;  // 2 meet is nz - 1 or nz
+    auto steps = [&](int d, int64_t s0, int64_t s1) {
+      for (int64_t step = s0; step < s1; ++step) plane_step(d == 0 ? 1 : -1, step, evals_per[d]);
+    };
     for (int round = 0; round < P.rounds; ++round) {
-#pragma omp parallel for num_threads(std::min(nt, 2)) schedule(static, 1)
-      for (int d = 0; d < 2; ++d) pass(d == 0 ? 1 : -1, evals_per[d]);
+#pragma omp parallel num_threads(std::min(nt, 2))
+      {
+#pragma omp for schedule(static, 1)
+        for (int d = 0; d < 2; ++d) steps(d, 0, meet);
+#pragma omp single
+        {
+          steps(0, meet, meet + 1);
+          steps(1, meet, meet + 1);
+        }
+#pragma omp for schedule(static, 1)
+        for (int d = 0; d < 2; ++d) steps(d, meet + 1, G.nz);
+      }
     }
     st.propagate_evaluations = evals_per[0] + evals_per[1];
   }

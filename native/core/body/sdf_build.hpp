@@ -14,7 +14,8 @@
 //      winding number is then w = w(mesh + caps) - w(caps), where w(caps) is a sum of
 //      solid angles evaluated only near the caps (elsewhere it is provably < 0.4 and
 //      cannot change the inside test w > 1/2).
-// All phases are parallel with OpenMP and need no Python.
+// All phases are parallel with OpenMP and need no Python, and the result is the
+// same bits for any thread count (no phase depends on thread timing).
 #pragma once
 #include <cstdint>
 #include <string>

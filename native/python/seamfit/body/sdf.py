@@ -5,7 +5,11 @@ grid in the compiled core (exact narrow band, closest-triangle propagation,
 winding-number sign; the GIL is released) and caches the result twice: in
 process (a few recent fields) and on disk under ``$SEAMFIT_CACHE_DIR`` (default
 ``~/.cache/seamfit/sdf``), keyed by a SHA-256 of the vertices, faces, spacing,
-padding, bounds and the algorithm version, so any change rebuilds.
+padding, bounds and the algorithm version, so any change rebuilds. A disk entry is
+checked before use (its stored key, the grid's shape, origin and spacing against the
+requested layout, float32 finite values): a bad one is deleted, reported and rebuilt
+(see :mod:`seamfit.cache`). The build is deterministic: the same bits for any thread
+count, so a rebuilt field equals the cached one.
 
 ``SignedDistanceField.values`` has shape (nz, ny, nx): flat index
 ``i + nx * (j + ny * k)``, node (i, j, k) at ``origin + spacing * (i, j, k)``,
@@ -25,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import cache as disk_cache
 from .._native import core
 from ..errors import BodyError
 from ..fileio import atomic_write_bytes
@@ -35,7 +40,8 @@ __all__ = ["SignedDistanceField", "build_sdf", "sdf_cache_key", "sdf_cache_dir",
 
 FORMAT = "seamfit-sdf-1"
 # Bump when the build's output changes: old cache entries then miss.
-ALGORITHM_VERSION = 1
+# 2: propagation made deterministic (the same bits for any thread count).
+ALGORITHM_VERSION = 2
 DEFAULT_SPACING = 0.0025
 DEFAULT_PADDING = 0.05
 MAX_NODES = 400_000_000  # ~1.6 GB of float32 values (plus ~2x while building)
@@ -89,9 +95,12 @@ class SignedDistanceField:
     def save(self, path) -> Path:
         """Write an uncompressed .npz atomically (fast to load)."""
         buf = io.BytesIO()
-        np.savez(buf, format=np.array(FORMAT), values=self.values, origin=self.origin,
-                 spacing=np.array(self.spacing), info=np.array(json.dumps(_jsonable(self.info))))
+        self._write(buf)
         return atomic_write_bytes(Path(path), buf.getvalue())
+
+    def _write(self, f) -> None:
+        np.savez(f, format=np.array(FORMAT), values=self.values, origin=self.origin,
+                 spacing=np.array(self.spacing), info=np.array(json.dumps(_jsonable(self.info))))
 
     @classmethod
     def load(cls, path) -> "SignedDistanceField":
@@ -108,6 +117,8 @@ class SignedDistanceField:
             raise BodyError(f"{path}: unreadable SDF file: {exc}") from None
         if values.dtype != np.float32:
             raise BodyError(f"{path}: SDF values must be float32, got {values.dtype}")
+        if not np.isfinite(values).all():
+            raise BodyError(f"{path}: SDF values include NaN or infinity")
         return cls(values, origin, spacing, info=info, source="file")
 
 
@@ -165,16 +176,43 @@ def _remember(key: str, sdf: SignedDistanceField) -> None:
         _memory.popitem(last=False)
 
 
-def _from_disk(path: Path, key: str):
-    if not path.is_file():
-        return None
+def _entry_problem(z: dict, key: str, layout: dict, spacing: float) -> str | None:
+    """Why a cache entry's arrays cannot serve the request, or None."""
+    for name in ("format", "values", "origin", "spacing", "info"):
+        if name not in z:
+            return f"array {name!r} is missing"
+    if z["format"].shape != () or str(z["format"]) != FORMAT:
+        return f"not a {FORMAT} file"
     try:
-        sdf = SignedDistanceField.load(path)
-    except BodyError:
-        return None  # unreadable entry: rebuilt and overwritten
-    if sdf.info.get("cache_key") != key:
+        stored = json.loads(str(z["info"])).get("cache_key")
+    except (ValueError, AttributeError):
+        return "its info is not a JSON object"
+    if stored != key:
+        return f"it was stored under another key ({str(stored)[:40]!r})"
+    values, origin, sp = z["values"], z["origin"], z["spacing"]
+    nx, ny, nz = layout["dims"]
+    if values.dtype != np.float32 or values.shape != (nz, ny, nx):
+        return f"values are {values.dtype} {values.shape}, expected float32 {(nz, ny, nx)}"
+    if origin.shape != (3,) or not np.allclose(origin, layout["origin"], rtol=0, atol=1e-9):
+        return f"origin {origin} differs from the grid's {tuple(layout['origin'])}"
+    if sp.shape != () or float(sp) != float(spacing):
+        return f"spacing {sp} differs from {spacing}"
+    if not np.isfinite(values).all():
+        return f"{int(values.size - np.isfinite(values).sum())} of {values.size} values are NaN or infinite"
+    return None
+
+
+def _from_disk(path: Path, key: str, body: Body, spacing: float, padding: float, bounds, problems: list):
+    try:
+        layout = core().sdf_layout(np.ascontiguousarray(body.vertices, dtype=np.float64), float(spacing),
+                                   float(padding), bounds)
+    except ValueError:
+        return None  # an unusable body: the build reports why
+    z = disk_cache.read_entry(path, lambda z: _entry_problem(z, key, layout, spacing), problems)
+    if z is None:
         return None
-    return sdf
+    return SignedDistanceField(z["values"], z["origin"], float(z["spacing"]), json.loads(str(z["info"])),
+                               source="disk cache")
 
 
 # ----------------------------------------------------------------------------- build
@@ -193,13 +231,14 @@ def build_sdf(body: Body, spacing: float = DEFAULT_SPACING, padding: float = DEF
     if nb is not None and not (all(np.isfinite(nb)) and all(nb[a + 3] > nb[a] for a in range(3))):
         raise BodyError(f"{body.where}: bounds need finite values with max > min on every axis, got {bounds!r}")
     key = sdf_cache_key(body, spacing, padding, nb)
+    rejected: list = []
     if cache:
         hit = _memory.get(key)
         if hit is not None:
             _memory.move_to_end(key)
             return SignedDistanceField(hit.values, hit.origin, hit.spacing, hit.info, source="memory cache")
         disk_path = sdf_cache_dir() / f"{key}.npz"
-        hit = _from_disk(disk_path, key)
+        hit = _from_disk(disk_path, key, body, spacing, padding, nb, rejected)
         if hit is not None:
             hit.values.flags.writeable = False
             _remember(key, hit)
@@ -225,8 +264,8 @@ def build_sdf(body: Body, spacing: float = DEFAULT_SPACING, padding: float = DEF
     sdf = SignedDistanceField(values, info["origin"], spacing, info, source="built")
     if cache:
         _remember(key, sdf)
-        try:
-            sdf.save(sdf_cache_dir() / f"{key}.npz")
-        except OSError:
-            pass  # a read-only or full cache directory only costs a rebuild next time
+        # A read-only or full cache directory only costs a rebuild next time.
+        disk_cache.write_entry(sdf_cache_dir() / f"{key}.npz", sdf._write)
+    if rejected:  # reported on this result only, not stored with the field
+        sdf = SignedDistanceField(values, sdf.origin, spacing, {**info, "cache_rejected": rejected}, source="built")
     return sdf

@@ -13,12 +13,9 @@ sf=.venv/bin/seamfit
 samples=sample_files
 pattern=$samples/patterns/gc_pencil_skirt/size06/pattern.json
 $sf validate "$pattern"
-rc=0
 $sf grade "$pattern" \
     --base-body $samples/bodies/women_size06.obj \
     --target-body $samples/bodies/women_size10.obj \
     --truth $samples/patterns/gc_pencil_skirt/size10/pattern.json \
-    --edge-length 3 --max-iterations 64 --out "$out/grade" --force || rc=$?   # --force: a re-run replaces the set
-# 1: the grading stopped at its iteration budget; the results are written and the report says so.
-[ "$rc" -le 1 ] || exit "$rc"
+    --edge-length 3 --max-iterations 64 --out "$out/grade" --force   # --force: a re-run replaces the set
 echo "results in $out/grade: pattern.json pattern.svg pattern.png garment.obj drape.png report.json"

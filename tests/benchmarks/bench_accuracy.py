@@ -67,7 +67,9 @@ def discover(data: Path, base: str, garments: list[str] | None, bodies: list[str
 
 
 def preset_for(garment: str) -> str:
-    return "pants" if any(k in garment for k in ("pants", "trouser")) else "dress"
+    """The preset seamfit's "auto" picks for this garment (its id names its kind)."""
+    from seamfit.opt.presets import preset_for_garment
+    return preset_for_garment(garment)
 
 
 def grade_kwargs(args, garment: str) -> dict:
@@ -80,11 +82,14 @@ def grade_kwargs(args, garment: str) -> dict:
             kw[field] = v
     if getattr(args, "start", None) is not None:
         kw["start"] = args.start
+    over = dict(item.split("=", 1) for item in getattr(args, "strength", []) or [])
     if getattr(args, "seam", None) is not None:
+        over["seam"] = args.seam
+    if over:
         from dataclasses import asdict
 
         from seamfit.opt.presets import preset
-        kw["strengths"] = {**asdict(preset(kw["preset"]).strengths), "seam": args.seam}
+        kw["strengths"] = {**asdict(preset(kw["preset"]).strengths), **{k: float(v) for k, v in over.items()}}
     return kw
 
 
@@ -232,7 +237,7 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--garments", default=None, help="comma list (default all)")
     r.add_argument("--bodies", default=None, help="comma list of target bodies (default all but the base)")
     r.add_argument("--base", default="size06", help="base body id (default size06)")
-    r.add_argument("--preset", default="auto", help="strength preset; auto: pants for trousers, else dress")
+    r.add_argument("--preset", default="auto", help="strength preset; auto: seamfit's choice for the garment kind")
     r.add_argument("--edge-length", type=float, default=None, help="mesh edge cm (default: GradeSettings)")
     r.add_argument("--sdf-spacing", type=float, default=None, help="SDF spacing m (default: GradeSettings)")
     r.add_argument("--max-iterations", type=int, default=None, help="outer iterations (default: GradeSettings)")
@@ -240,6 +245,8 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--inner-iterations", type=int, default=None)
     r.add_argument("--seam", type=float, default=None, help="seam-length strength (default: the preset's)")
     r.add_argument("--start", default=None, help="theta^(0) and anchor: base | level (default: GradeSettings)")
+    r.add_argument("--strength", action="append", default=[], metavar="NAME=DELTA",
+                   help="override one strength of the preset (repeatable), e.g. --strength pos=0")
     r.add_argument("--time-budget", type=float, default=None, help="seconds per grading (default none)")
     r.add_argument("--case-timeout", type=float, default=None, help="kill a case after this many seconds")
     r.add_argument("--no-baseline-ease", action="store_true", help="skip draping the two baselines")

@@ -9,8 +9,8 @@ existing non-empty DIR is replaced whole, only with --force; no input is ever to
   garment.obj    the final drape on the target body (vt = adjusted pattern, cm)
   drape.png      front, side and back views of that drape
   report.json    objectives and terms before/after, iterations, timings, checks, ease
-Exit code 0 when the optimization converged, 1 when it stopped at its budget (the
-files are still written and say so), 2 on an error.
+Exit code 0 when the results are written, converged or not (the report and the console
+say which; --fail-unconverged makes a stop at the budget exit 1), 2 on an error.
 """
 from __future__ import annotations
 
@@ -25,7 +25,9 @@ from ..output_set import OutputSet, add_force_argument
 EPILOG = """\
 Presets (strengths fix, cur, dis, smo, str, pos from the paper's Table 1; seam, the
 seam-length term, is ours, see docs/optimizer.md):
-  dress           woven garments with ease: dresses, tops, skirts (default)
+  auto            by the pattern's garment_type: skirt, pants, fitted or dress (default)
+  dress           woven garments with ease: dresses, tops, jackets
+  skirt           skirts: the dress's balance without the positional cost (ours)
   fitted          stretch garments worn under tension (bodysuit, leggings)
   skirt_shirring  gathered or shirred garments
   pants           trousers and jumpsuits
@@ -61,7 +63,8 @@ def register(subparsers) -> None:
                    help="where the search starts and what R^fix / R^cur hold it to: level (the base pattern "
                         "stretched level by level by how much the body grew there) or base (the paper's start "
                         f"from the base pattern); default {d.start}, see docs/method.md")
-    p.add_argument("--preset", choices=sorted(PRESETS), default=d.preset, help=f"strength preset (default {d.preset})")
+    p.add_argument("--preset", choices=["auto", *sorted(PRESETS)], default=d.preset,
+                   help=f"strength preset (default {d.preset}: by the pattern's garment type, see below)")
     for name in ("fix", "cur", "dis", "smo", "str", "pos", "seam"):
         p.add_argument(f"--{name}", type=float, default=None, metavar="DELTA",
                        help=f"override the preset's {name} strength (0 skips the term)")
@@ -93,6 +96,9 @@ def register(subparsers) -> None:
                    help="on the GPU, solve the adjoint at inexact states only to F x the state's residual "
                         "(default %(default)s; 0: to 1e-8 everywhere, as the CPU's direct solve, 4x slower "
                         "at 60K triangles, docs/gpu.md)")
+    p.add_argument("--fail-unconverged", action="store_true",
+                   help="exit 1 when the search stopped at its budget before converging (the results are "
+                        "still written); default: exit 0 whenever the results are written")
     p.add_argument("--no-picture", action="store_true", help="do not write drape.png and pattern.png")
     add_force_argument(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
@@ -108,7 +114,8 @@ def run(args) -> int:
 
     resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
     out = Path(args.out)
-    strengths = preset(args.preset).strengths
+    base_pattern = load_pattern(args.pattern)
+    strengths = preset(args.preset, base_pattern.garment_type).strengths
     overrides = {k: getattr(args, k) for k in ("fix", "cur", "dis", "smo", "str", "pos", "seam") if getattr(args, k) is not None}
     if overrides:
         from dataclasses import replace
@@ -134,7 +141,6 @@ def run(args) -> int:
             print(f"[{time.perf_counter() - t0:7.1f}s] {info['stage']}", file=sys.stderr, flush=True)
         return None
 
-    base_pattern = load_pattern(args.pattern)
     base_body = load_body(args.base_body)
     target_body = load_body(args.target_body)
     inputs = [args.pattern, args.base_body, args.target_body, args.truth]
@@ -143,7 +149,10 @@ def run(args) -> int:
     if not args.quiet:
         pics = "" if args.no_picture else ", pattern.png, drape.png"
         print(f"wrote {out}/pattern.json, pattern.svg, garment.obj, report.json{pics}", file=sys.stderr)
-    return 0 if report["converged"] else 1
+    if not report["converged"] and not args.quiet:
+        print(f"seamfit grade: stopped before converging ({report['message']}); the results are written and "
+              "report.json says so", file=sys.stderr)
+    return 1 if args.fail_unconverged and not report["converged"] else 0
 
 
 def _grade(args, settings, progress, base_pattern, base_body, target_body, tmp: Path) -> dict:

@@ -6,7 +6,7 @@ from .costs import (POSITIONAL_WEIGHT_BOUNDARY, POSITIONAL_WEIGHT_INTERIOR, Cost
                     positional_weights, sample_sdf)
 from .initialize import InitResult, initialize_pattern
 from .parametrization import Parametrization
-from .presets import PRESETS, Preset, preset
+from .presets import PRESETS, Preset, preset, preset_for_garment
 from .regularizers import CORNER_WEIGHT, Regularizers
 from .seam import SeamLength, seam_segments
 from .transfer import DEFAULT_BANDWIDTH, transfer_garment, vertex_deformation
@@ -14,6 +14,6 @@ from .transfer import DEFAULT_BANDWIDTH, transfer_garment, vertex_deformation
 __all__ = [
     "CORNER_WEIGHT", "CostSet", "DEFAULT_BANDWIDTH", "InitResult", "POSITIONAL_WEIGHT_BOUNDARY",
     "POSITIONAL_WEIGHT_INTERIOR", "PRESETS", "Parametrization", "Preset", "Regularizers", "SeamLength",
-    "Strengths", "initialize_pattern", "positional_weights", "preset", "sample_sdf", "seam_segments",
+    "Strengths", "initialize_pattern", "positional_weights", "preset", "preset_for_garment", "sample_sdf", "seam_segments",
     "transfer_garment", "vertex_deformation",
 ]

@@ -45,7 +45,7 @@ __all__ = ["METHODS", "GradeResult", "GradeSettings", "ProgressFn", "base_drape"
 class GradeSettings:
     """Controls of one grading run. Strength coefficients come from ``preset`` unless
     ``strengths`` is given (Strengths or a dict with fix, cur, dis, smo, str, pos, seam)."""
-    preset: str = "dress"
+    preset: str = "auto"               # auto: by the pattern's garment_type (presets.preset_for_garment)
     strengths: Optional[object] = None
     method: str = "adjoint"            # adjoint | two-phase | fixed-point
     # theta^(0) and the anchor of R^fix / R^cur: "level" (the base pattern stretched level
@@ -96,10 +96,10 @@ class GradeSettings:
     # base_drape says converged False) instead of stopping with SolveError.
     accept_unsettled_base: bool = False
 
-    def resolved_strengths(self) -> Strengths:
+    def resolved_strengths(self, garment_type: str | None = None) -> Strengths:
         if self.strengths is not None:
             return Strengths.from_any(self.strengths)
-        return preset(self.preset).strengths
+        return preset(self.preset, garment_type).strengths
 
     def validate(self) -> None:
         if self.device not in ("auto", "cpu", "cuda"):

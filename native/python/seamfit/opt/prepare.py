@@ -134,7 +134,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     t_start = time.perf_counter()
     fabric = fabric or Fabric()
     sim_settings = sim_settings or SimSettings()
-    strengths = settings.resolved_strengths()
+    strengths = settings.resolved_strengths(base_pattern.garment_type)
 
     def tell(**info):
         if progress is not None and progress(info) is False:

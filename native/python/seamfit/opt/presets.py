@@ -55,6 +55,13 @@ PRESETS = {
         "gathered or shirred garments whose designed folds matter more than their distance to the body",
         "Carmen Skirt",
     ),
+    "skirt": Preset(
+        "skirt",
+        Strengths(fix=100, cur=1e6, dis=1, smo=0.05, str=1, pos=0, seam=SEAM_STRENGTH),
+        "skirts (straight, pencil, A-line, circle): the dress's balance without the positional cost, "
+        "whose target follows the legs under a hanging hem",
+        "Secretary Dress, positional cost off (docs/method.md, 'The skirt preset')",
+    ),
     "pants": Preset(
         "pants",
         Strengths(fix=100, cur=1e6, dis=1, smo=0.05, str=1, pos=100, seam=SEAM_STRENGTH),
@@ -64,10 +71,27 @@ PRESETS = {
 }
 PRESETS["bodysuit"] = PRESETS["fitted"]
 
+# garment_type substrings -> preset, first match wins; "auto" picks by these, "dress" else.
+_KIND_RULES = (("shirring", "skirt_shirring"), ("skirt", "skirt"), ("pants", "pants"), ("trouser", "pants"),
+               ("jumpsuit", "pants"), ("legging", "fitted"), ("bodysuit", "fitted"), ("swim", "fitted"))
+AUTO = "auto"
 
-def preset(name: str) -> Preset:
-    """The preset called ``name`` (fitted or bodysuit, dress, skirt_shirring, pants)."""
+
+def preset_for_garment(garment_type: str | None) -> str:
+    """The preset a garment kind gets with ``preset="auto"`` (the pattern's garment_type)."""
+    kind = (garment_type or "").lower()
+    for key, name in _KIND_RULES:
+        if key in kind:
+            return name
+    return "dress"
+
+
+def preset(name: str, garment_type: str | None = None) -> Preset:
+    """The preset called ``name`` (fitted or bodysuit, dress, skirt, skirt_shirring, pants;
+    "auto": the one ``preset_for_garment`` picks for ``garment_type``)."""
+    if name == AUTO:
+        name = preset_for_garment(garment_type)
     try:
         return PRESETS[name]
     except KeyError:
-        raise KeyError(f"unknown preset {name!r}; choose one of {sorted(PRESETS)}") from None
+        raise KeyError(f"unknown preset {name!r}; choose auto or one of {sorted(PRESETS)}") from None

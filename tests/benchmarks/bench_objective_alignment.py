@@ -1,0 +1,280 @@
+"""Does the grading objective f prefer the pattern a pattern maker drafted?
+
+For every shared garment x body case, the drafted truth pattern (the same drafting system's
+pattern for the target body) is put on the base mesh, draped on the target body from the
+same start as the grading, and f is evaluated on it term by term; likewise the unchanged
+pattern, proportional scaling, the level-scaled start, the initialized start (Section 7)
+and the graded result. Each candidate's landmark error against the truth is scored too (the
+truth's own is the error of putting it on the mesh).
+
+    python tests/benchmarks/bench_objective_alignment.py run --data DATA --out OUT.json --jobs 16
+    python tests/benchmarks/bench_objective_alignment.py report OUT.json [--docs docs]
+
+If f(truth) < f(graded) the search is failing; if f(truth) > f(graded) the objective
+prefers patterns no pattern maker would draft, and the terms say which part.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics as st
+import sys
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+sys.path.insert(0, str(HERE))
+
+CANDIDATES = ("truth", "unchanged", "scaled", "level", "initialized", "graded")
+TERMS = ("dis", "smo", "str", "pos", "fix", "cur", "seam")
+
+
+def _arc(outline: np.ndarray) -> np.ndarray:
+    """Cumulative arc length at each outline point of a closed polyline, and the total."""
+    seg = np.linalg.norm(np.diff(np.vstack([outline, outline[:1]]), axis=0), axis=1)
+    return np.concatenate([[0.0], np.cumsum(seg)])
+
+
+def _point_at(outline: np.ndarray, s_all: np.ndarray, s: float) -> np.ndarray:
+    total = s_all[-1]
+    s = s % total
+    i = int(np.searchsorted(s_all, s, side="right") - 1)
+    i = min(i, len(outline) - 1)
+    a, b = outline[i], outline[(i + 1) % len(outline)]
+    seg = s_all[i + 1] - s_all[i]
+    t = 0.0 if seg <= 0 else (s - s_all[i]) / seg
+    return a + t * (b - a)
+
+
+def _edge_ranges(panel, s_all) -> list[tuple[float, float]]:
+    total = s_all[-1]
+    out = []
+    for e in panel.edges:
+        s0, s1 = s_all[e.start], s_all[e.end] if e.end != 0 else total
+        if s1 <= s0:
+            s1 += total
+        out.append((s0, s1))
+    return out
+
+
+def _project(outline, s_all, pts):
+    """Arc position of each point on the closed polyline (nearest segment)."""
+    a = outline
+    b = np.roll(outline, -1, axis=0)
+    d = b - a
+    dd = np.maximum(np.sum(d * d, axis=1), 1e-300)
+    out = np.empty(len(pts))
+    for k, p in enumerate(pts):
+        t = np.clip(np.sum((p - a) * d, axis=1) / dd, 0.0, 1.0)
+        q = a + t[:, None] * d
+        i = int(np.argmin(np.sum((q - p) ** 2, axis=1)))
+        out[k] = s_all[i] + t[i] * np.sqrt(dd[i])
+    return out
+
+
+def truth_on_mesh(mesh, param, base, truth) -> np.ndarray:
+    """theta (n_theta, 2) m: each boundary vertex of the base mesh moved to the same
+    fraction of arc length along the same edge of the truth's panel, the panel then rigidly
+    aligned onto the base one. Raises ValueError where the panels' edges differ."""
+    uv = np.asarray(mesh.uv_cm, dtype=float)
+    vp = np.asarray(mesh.vertex_panel)
+    theta = np.zeros((param.n_theta, 2))
+    for k, name in enumerate(mesh.panel_names):
+        bp, tp = base.panel(name), truth.panel(name)
+        if len(bp.edges) != len(tp.edges):
+            raise ValueError(f"panel {name}: {len(bp.edges)} edges in the base, {len(tp.edges)} in the truth")
+        ids = param.boundary_ids[vp[param.boundary_ids] == k]
+        sb, st_ = _arc(bp.outline_cm), _arc(tp.outline_cm)
+        rb, rt = _edge_ranges(bp, sb), _edge_ranges(tp, st_)
+        s = _project(bp.outline_cm, sb, uv[ids])
+        new = np.zeros((len(ids), 2))
+        for j, sj in enumerate(s):
+            for (a0, a1), (t0, t1) in zip(rb, rt):
+                x = sj if sj >= a0 else sj + sb[-1]
+                if a0 <= x <= a1:
+                    f = (x - a0) / max(a1 - a0, 1e-12)
+                    new[j] = _point_at(tp.outline_cm, st_, t0 + f * (t1 - t0))
+                    break
+        # rigid alignment onto the base panel (R^fix is not invariant to where a panel lies)
+        A, B = uv[ids], new
+        ca, cb = A.mean(axis=0), B.mean(axis=0)
+        U, _, Vt = np.linalg.svd((B - cb).T @ (A - ca))
+        R = (U @ Vt).T
+        if np.linalg.det(R) < 0:
+            Vt[-1] *= -1
+            R = (U @ Vt).T
+        theta[param.theta_index[ids]] = 0.01 * ((B - cb) @ R.T + ca)
+    return theta
+
+
+def scaled_on_mesh(mesh, param, base, sx: float, sy: float) -> np.ndarray:
+    uv = np.asarray(mesh.uv_cm, dtype=float).copy()
+    vp = np.asarray(mesh.vertex_panel)
+    for k, name in enumerate(mesh.panel_names):
+        o = base.panel(name).outline_cm
+        c = 0.5 * (o.min(axis=0) + o.max(axis=0))
+        uv[vp == k] = c + (uv[vp == k] - c) * np.array([sx, sy])
+    return param.theta_of(0.01 * uv)
+
+
+def pattern_of(ctx, theta):
+    from seamfit.mesh import outline_from_uv
+    from seamfit.opt.output import remove_panel_rotations
+    from seamfit.pattern.refit import refit_pattern
+    uv, _ = remove_panel_rotations(ctx.mesh, 100.0 * ctx.param.pattern(theta))
+    return refit_pattern(ctx.base_pattern, outline_from_uv(ctx.mesh, uv)).pattern
+
+
+def run_case(data: str, garment: str, body: str, grade_kw: dict) -> dict:
+    from accuracy_case import body_file, measurements_cm
+    from seamfit.body import load_body
+    from seamfit.opt.grade import GradeSettings, algorithm1
+    from seamfit.pattern import landmark_errors, load_pattern
+    from seamfit.pattern.scale import proportional_ratios
+    from seamfit.opt.prepare import prepare
+
+    data = Path(data)
+    row = {"garment": garment, "body": body, "candidates": {}}
+    t0 = time.perf_counter()
+    try:
+        base = load_pattern(data / "patterns" / garment / "size06" / "pattern.json")
+        truth = load_pattern(data / "patterns" / garment / body / "pattern.json")
+        p0, p1 = body_file(data / "bodies", "size06"), body_file(data / "bodies", body)
+        b0, b1 = load_body(p0), load_body(p1)
+        ratios = proportional_ratios(base.garment_type, measurements_cm(data / "bodies", p0, b0),
+                                     measurements_cm(data / "bodies", p1, b1))
+        ctx = prepare(base, b0, b1, GradeSettings(**grade_kw, evaluate_base_pattern=False))
+        thetas = {"unchanged": ctx.param.theta_bar,
+                  "scaled": scaled_on_mesh(ctx.mesh, ctx.param, base, ratios["sx"], ratios["sy"])}
+        if ctx.extra.get("theta_level") is not None:
+            thetas["level"] = ctx.extra["theta_level"]
+        try:
+            thetas["truth"] = truth_on_mesh(ctx.mesh, ctx.param, base, truth)
+        except ValueError as exc:
+            row["candidates"]["truth"] = {"ok": False, "error": str(exc)}
+        out = algorithm1(ctx)
+        xs = {"initialized": out.x_start, "graded": out.x}
+        thetas["initialized"], thetas["graded"] = out.theta_start, out.theta
+        row["graded"] = {"converged": out.converged, "message": out.message, "iterations": out.iterations}
+        for name, theta in thetas.items():
+            x = xs.get(name)
+            entry = {"ok": True}
+            if x is None:
+                res = ctx.exact(theta, ctx.xtilde, name)
+                x = res.x
+                entry["drape_converged"] = bool(res.converged)
+            f, terms = ctx.objective.objective(x, theta)
+            entry.update({"f": f, "terms": terms,
+                          "landmark_max_cm": landmark_errors(pattern_of(ctx, theta), truth).max_cm})
+            row["candidates"][name] = entry
+    except Exception as exc:  # noqa: BLE001 - a benchmark records, never stops
+        row["error"] = f"{type(exc).__name__}: {exc}"
+        row["traceback"] = traceback.format_exc()[-1500:]
+    row["seconds"] = time.perf_counter() - t0
+    return row
+
+
+def cmd_run(a) -> int:
+    from bench_accuracy import discover, grade_kwargs
+    pairs = discover(a.data, "size06", a.garments.split(",") if a.garments else None,
+                     a.bodies.split(",") if a.bodies else None)
+    rows = []
+    os.environ["OMP_NUM_THREADS"] = "1"
+    with ProcessPoolExecutor(max_workers=a.jobs) as pool:
+        futs = {pool.submit(run_case, str(a.data), g, b, grade_kwargs(a, g)): (g, b) for g, b in pairs}
+        for fut in as_completed(futs):
+            r = fut.result()
+            rows.append(r)
+            c = r["candidates"]
+            msg = r.get("error") or "  ".join(f"{k} f={v['f']:.3g} lm={v['landmark_max_cm']:.2f}"
+                                             for k, v in c.items() if v.get("ok"))
+            print(f"{r['garment']}/{r['body']} ({r['seconds']:.0f} s): {msg}", flush=True)
+            a.out.write_text(json.dumps({"command": " ".join(sys.argv), "cases": rows}, indent=1) + "\n")
+    return 0
+
+
+def cmd_report(a) -> int:
+    d = json.loads(a.results.read_text())
+    rows = sorted(d["cases"], key=lambda r: (r["garment"], r["body"]))
+    ok = [r for r in rows if "error" not in r and r["candidates"].get("truth", {}).get("ok")
+          and r["candidates"].get("graded", {}).get("ok")]
+    lines = ["# Does the grading objective prefer the drafted pattern?", "",
+             f"Generated by `tests/benchmarks/bench_objective_alignment.py report` from "
+             f"`{a.results.name}` (command: `{d.get('command', '')}`).", "",
+             "Every candidate pattern is put on the base mesh, draped on the target body from the grading's "
+             "start (x-tilde) and scored with the grading objective f (default preset and start; R^fix and "
+             "R^cur measure from the level-scaled start) term by term. *truth* is the pattern the drafting "
+             "system made for the target body, each boundary vertex moved to the same fraction of the same "
+             "edge; its landmark error is what that mapping costs. lm: max landmark error against the truth, "
+             "cm.", ""]
+    n = len(ok)
+    lower = sum(r["candidates"]["truth"]["f"] < r["candidates"]["graded"]["f"] for r in ok)
+    lines += [f"**{n} cases** with the truth on the mesh ({len(rows) - n} without: the drafting rules changed "
+              f"the panel's edges, or the case failed). f(truth) < f(graded) in **{lower}**; "
+              f"f(truth) > f(graded) in **{n - lower}**.", ""]
+    med = lambda xs: st.median(xs) if xs else float("nan")  # noqa: E731
+    lines += ["## Median over those cases", "",
+              "| candidate | f | " + " | ".join(TERMS) + " | lm cm |", "|---|" + "---:|" * (len(TERMS) + 2)]
+    for c in CANDIDATES:
+        es = [r["candidates"][c] for r in ok if r["candidates"].get(c, {}).get("ok")]
+        if not es:
+            continue
+        lines.append(f"| {c} | {med([e['f'] for e in es]):.3g} | "
+                     + " | ".join(f"{med([e['terms'].get(t, 0.0) for e in es]):.3g}" for t in TERMS)
+                     + f" | {med([e['landmark_max_cm'] for e in es]):.2f} |")
+    lines += ["", "## Per case", "", "| garment | body | " + " | ".join(f"f {c} (lm)" for c in CANDIDATES)
+              + " | largest term gap truth - graded |", "|---|---|" + "---|" * (len(CANDIDATES) + 1)]
+    for r in rows:
+        c = r["candidates"]
+        cells = []
+        for k in CANDIDATES:
+            e = c.get(k, {})
+            cells.append(f"{e['f']:.3g} ({e['landmark_max_cm']:.2f})" if e.get("ok") else "-")
+        gap = "-"
+        if c.get("truth", {}).get("ok") and c.get("graded", {}).get("ok"):
+            diffs = {t: c["truth"]["terms"].get(t, 0) - c["graded"]["terms"].get(t, 0) for t in TERMS}
+            t = max(diffs, key=diffs.get)
+            gap = f"{t} {diffs[t]:+.3g}"
+        lines.append(f"| {r['garment']} | {r['body']} | " + " | ".join(cells) + f" | {gap} |")
+    if a.notes is not None:
+        lines += ["", "## Reading", "", a.notes.read_text().rstrip()]
+    out = a.docs / "objective_alignment.md"
+    out.write_text("\n".join(lines) + "\n")
+    print(f"wrote {out}")
+    return 0
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser()
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run")
+    r.add_argument("--data", type=Path, default=Path("/work/shared/data"))
+    r.add_argument("--out", type=Path, required=True)
+    r.add_argument("--jobs", type=int, default=1)
+    r.add_argument("--garments", default="")
+    r.add_argument("--bodies", default="")
+    r.add_argument("--preset", default="auto")
+    r.add_argument("--start", default=None)
+    r.add_argument("--edge-length", type=float, default=3.0)
+    r.add_argument("--sdf-spacing", type=float, default=None)
+    r.add_argument("--max-iterations", type=int, default=128)
+    r.add_argument("--checkpoint-every", type=int, default=None)
+    r.add_argument("--inner-iterations", type=int, default=None)
+    r.add_argument("--time-budget", type=float, default=100.0)
+    r.add_argument("--seam", type=float, default=None)
+    p = sub.add_parser("report")
+    p.add_argument("results", type=Path)
+    p.add_argument("--docs", type=Path, default=ROOT / "docs")
+    p.add_argument("--notes", type=Path, default=None, help="markdown appended as 'Reading'")
+    a = ap.parse_args(argv)
+    return cmd_run(a) if a.cmd == "run" else cmd_report(a)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

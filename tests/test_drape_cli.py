@@ -45,6 +45,7 @@ def test_drape_writes_obj_report_and_picture(draped):
     assert obj.uv.shape == (report["vertices"], 2)
     png = out / "drape.png"
     assert png.exists() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert report["pictures"] == {"drape.png": {"written": True}} and report["files"]["picture"] == "drape.png"
     # FreeSewing hints were wrapped around the body before sewing
     assert report["dressing"]["wrapped_panels"]
     assert report["coarse_start"] is True
@@ -60,6 +61,7 @@ def test_drape_progress_goes_to_stderr(tmp_path, capsys):
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["converged"] is False and "not converged" in report["message"]
     assert not (tmp_path / "drape.png").exists()
+    assert report["pictures"] == {"drape.png": {"written": False, "reason": "--no-picture"}}
     assert [s["stage"] for s in report["stages"]] == ["sew", "settle"] and report["coarse_start"] is False
 
 

@@ -5,6 +5,8 @@ order, vt = pattern coordinates in cm, one group per panel), DIR/report.json
 (iterations, seconds, residual, seams, contact, energy terms, sizes) and
 DIR/drape.png (front, side and back views), as one set: written into a temporary
 folder beside DIR and moved into place (an existing non-empty DIR only with --force).
+The picture is drawn last; one that cannot be drawn (no matplotlib, a drawing error) is
+a warning and a ``pictures`` entry in the report, and the other files are still written.
 Progress goes to stderr. Exit code 0 when the drape converged, 1 when it stopped first
 (the files are still written and say so), 2 on an error.
 """
@@ -19,6 +21,7 @@ from pathlib import Path
 
 from ..errors import SeamfitError
 from ..output_set import OutputSet, add_force_argument
+from ..pictures import draw_pictures, skipped
 
 EPILOG = """\
 The garment starts from the pattern's placement (GarmentCode: exact; FreeSewing:
@@ -177,12 +180,18 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float) -> int:
         "sdf": {"dims": list(sdf.values.shape[::-1]), "spacing": sdf.spacing, "origin": sdf.origin.tolist()},
         "files": {"obj": obj.name},
     }
-    if not args.no_picture:
-        from ..sim.render import render_drape
-        png = render_drape(tmp / "drape.png", result.x, mesh.triangles, mesh.triangle_panel,
-                           body.vertices, body.faces,
-                           title=f"{pattern.garment_id or args.pattern.stem} on {args.body.stem}")
-        report["files"]["picture"] = png.name
+    # Results first, the picture last: a picture that cannot be drawn costs only itself.
+    atomic_write_text(tmp / "report.json", json.dumps(report, indent=1) + "\n")
+    if args.no_picture:
+        report["pictures"] = skipped(["drape.png"])
+    else:
+        def draw(path):
+            from ..sim.render import render_drape
+            render_drape(path, result.x, mesh.triangles, mesh.triangle_panel, body.vertices, body.faces,
+                         title=f"{pattern.garment_id or args.pattern.stem} on {args.body.stem}")
+        report["pictures"] = draw_pictures(tmp, {"drape.png": draw}, command="drape")
+        if report["pictures"]["drape.png"]["written"]:
+            report["files"]["picture"] = "drape.png"
     atomic_write_text(tmp / "report.json", json.dumps(report, indent=1) + "\n")
     say(f"{'converged' if result.converged else 'NOT converged'}: {result.iterations} iterations, "
         f"{result.seconds:.1f} s, residual {result.residual:.2e}, max seam gap {result.max_sewing_gap_mm:.2f} mm, "

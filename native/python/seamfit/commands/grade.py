@@ -9,6 +9,8 @@ existing non-empty DIR is replaced whole, only with --force; no input is ever to
   garment.obj    the final drape on the target body (vt = adjusted pattern, cm)
   drape.png      front, side and back views of that drape
   report.json    objectives and terms before/after, iterations, timings, checks, ease
+The pictures are drawn last; one that cannot be drawn (no matplotlib, a drawing error) is
+a warning and a ``pictures`` entry in the report, and the other files are still written.
 Exit code 0 when the results are written, converged or not (the report and the console
 say which; --fail-unconverged makes a stop at the budget exit 1), 2 on an error.
 """
@@ -21,6 +23,9 @@ import time
 from pathlib import Path
 
 from ..output_set import OutputSet, add_force_argument
+from ..pictures import draw_pictures, skipped, written
+
+PICTURES = ("pattern.png", "drape.png")
 
 EPILOG = """\
 Presets (strengths fix, cur, dis, smo, str, pos from the paper's Table 1; seam, the
@@ -147,7 +152,7 @@ def run(args) -> int:
     with OutputSet(out, inputs=inputs, force=args.force) as tmp:
         report = _grade(args, settings, progress, base_pattern, base_body, target_body, tmp)
     if not args.quiet:
-        pics = "" if args.no_picture else ", pattern.png, drape.png"
+        pics = "".join(f", {name}" for name in written(report["pictures"]))
         print(f"wrote {out}/pattern.json, pattern.svg, garment.obj, report.json{pics}", file=sys.stderr)
     if not report["converged"] and not args.quiet:
         print(f"seamfit grade: stopped before converging ({report['message']}); the results are written and "
@@ -178,15 +183,13 @@ def _grade(args, settings, progress, base_pattern, base_body, target_body, tmp: 
     write_svg(tmp / "pattern.svg", [base_pattern, result.pattern],
               labels=[f"base ({base_body.name})", f"graded ({target_body.name})"])
     write_obj(tmp / "garment.obj", _with_uv(result.mesh, result.uv_cm), positions=result.x)
-    if not args.no_picture:
-        from ..pattern.nest_png import render_nest_png
-        from ..sim.render import render_drape
-        render_nest_png(tmp / "pattern.png", [base_pattern, result.pattern],
-                        labels=[f"base ({base_body.name})", f"graded ({target_body.name})"],
-                        title=f"{base_pattern.garment_id or args.pattern.stem}: graded nest")
-        render_drape(tmp / "drape.png", result.x, result.mesh.triangles, result.mesh.triangle_panel,
-                     body_vertices=target_body.vertices, body_faces=target_body.faces,
-                     title=f"{base_pattern.garment_id or args.pattern.stem} graded to {target_body.name}")
+    # Results first, the pictures last: a picture that cannot be drawn costs only itself.
+    atomic_write_text(tmp / "report.json", json.dumps(report, indent=1, default=json_default) + "\n")
+    if args.no_picture:
+        report["pictures"] = skipped(PICTURES)
+    else:
+        report["pictures"] = draw_pictures(tmp, _drawers(args, base_pattern, result, base_body, target_body),
+                                           command="grade")
     atomic_write_text(tmp / "report.json", json.dumps(report, indent=1, default=json_default) + "\n")
     if (report.get("sdf") or {}).get("warning"):  # even with -q: collisions may have been missed
         print(f"seamfit grade: warning: {report['sdf']['warning']}", file=sys.stderr)
@@ -200,6 +203,25 @@ def _grade(args, settings, progress, base_pattern, base_body, target_body, tmp: 
             print(f"landmark error vs truth: max {r['accuracy']['graded']['max_cm']:.2f} cm "
                   f"(unchanged base: {r['accuracy']['base_unchanged']['max_cm']:.2f} cm)", file=sys.stderr)
     return report
+
+
+def _drawers(args, base_pattern, result, base_body, target_body) -> dict:
+    """The pictures, by file name; matplotlib is imported only when they are drawn."""
+    name = base_pattern.garment_id or args.pattern.stem
+
+    def nest(path):
+        from ..pattern.nest_png import render_nest_png
+        render_nest_png(path, [base_pattern, result.pattern],
+                        labels=[f"base ({base_body.name})", f"graded ({target_body.name})"],
+                        title=f"{name}: graded nest")
+
+    def drape(path):
+        from ..sim.render import render_drape
+        render_drape(path, result.x, result.mesh.triangles, result.mesh.triangle_panel,
+                     body_vertices=target_body.vertices, body_faces=target_body.faces,
+                     title=f"{name} graded to {target_body.name}")
+
+    return dict(zip(PICTURES, (nest, drape)))
 
 
 def _print_time_split(r: dict) -> None:

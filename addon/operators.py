@@ -10,7 +10,7 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
-from . import compute, scene_io
+from . import compute, presets, scene_io
 from .cache import CACHE
 
 
@@ -69,7 +69,13 @@ class SEAMFIT_OT_import_pattern(bpy.types.Operator, ImportHelper):
         except compute.user_errors() as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        context.scene.seamfit.pattern = coll
+        s = context.scene.seamfit
+        s.pattern = coll
+        # The preset for the garment's kind, as `seamfit grade --preset auto` picks it;
+        # strengths set by hand (Custom) are left alone.
+        kind = presets.for_garment(pattern.garment_type)
+        if kind is not None and s.strength_preset != "CUSTOM":
+            s.strength_preset = kind
         for w in warnings:
             self.report({"WARNING"}, w)
         self.report({"INFO"}, f"Imported {coll.name}: {len(pattern.panels)} panels, "

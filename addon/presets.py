@@ -39,6 +39,17 @@ def presets() -> dict[str, tuple[str, tuple[float, ...]]]:
     return _from_seamfit() or dict(_PAPER)
 
 
+def for_garment(garment_type: str | None) -> str | None:
+    """The preset seamfit's "auto" picks for a pattern's garment kind (None when the
+    installed seamfit has no such rule), so Adjust grades as `seamfit grade` does."""
+    try:
+        from seamfit.opt.presets import preset_for_garment  # type: ignore
+    except Exception:
+        return None
+    name = preset_for_garment(garment_type)
+    return name if name in presets() else None
+
+
 def label(name: str) -> str:
     return name.replace("_", " ").capitalize()
 

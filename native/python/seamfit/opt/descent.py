@@ -135,7 +135,9 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
         x, x_res = res.x, ck_res
         theta_w, x_w = _restart(gpu, theta_w, x_w, theta, x)
         record(f, True)
-        ctx.tell(stage=label, iteration=k, objective=f, exact=True, state=sim_state)
+        # theta and x of the accepted checkpoint, for callers that follow the search (the
+        # time-against-error benchmark); references, not copies.
+        ctx.tell(stage=label, iteration=k, objective=f, exact=True, state=sim_state, theta=ck_theta, x=ck_x)
         S = max(S // 2, settings.min_inner_iterations)
         s = min(s * settings.step_growth, settings.max_step)
         if decrease <= settings.rel_tol * abs(f):

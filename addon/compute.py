@@ -474,43 +474,52 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
 
 
 def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | None = None) -> list:
-    """The files `seamfit grade` writes (pattern.json, pattern.svg, garment.obj, pattern.png,
-    drape.png, report.json), from a grading run of the add-on, with the same seamfit writers."""
+    """The files `seamfit grade` writes (pattern.json, pattern.svg, garment.obj, report.json,
+    then pattern.png and drape.png), from a grading run of the add-on, with the same seamfit
+    writers. As in `seamfit grade`, the pictures come last and a picture that cannot be drawn
+    (Blender ships no matplotlib) is a ``pictures`` entry in the report, never a lost result."""
     import copy
     import json as _json
     from pathlib import Path
+    from seamfit.commands.grade import PICTURES
     from seamfit.fileio import atomic_write_text, json_default
     from seamfit.mesh import write_obj
     from seamfit.pattern import save_pattern, write_svg
+    from seamfit.pictures import draw_pictures, skipped
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     res = g.result
     base = pattern_from_json(g.base_pattern_json, source="base pattern")
     graded = pattern_from_json(g.pattern_json, source="graded pattern")
+    labels = [f"base ({g.base_name})", f"graded ({g.target_name})"]
     save_pattern(graded, out / "pattern.json", overwrite=True)
-    write_svg(out / "pattern.svg", [base, graded], labels=[f"base ({g.base_name})", f"graded ({g.target_name})"])
+    write_svg(out / "pattern.svg", [base, graded], labels=labels)
     mesh = copy.copy(res.mesh)
     mesh.uv_cm = res.uv_cm
     write_obj(out / "garment.obj", mesh, positions=res.x)
-    written = [out / "pattern.json", out / "pattern.svg", out / "garment.obj"]
-    if picture and importlib.util.find_spec("matplotlib") is not None:
-        # seamfit draws these with matplotlib, which Blender does not ship: only where it is installed.
-        from seamfit.pattern.nest_png import render_nest_png
-        from seamfit.sim.render import render_drape
-        render_nest_png(out / "pattern.png", [base, graded],
-                        labels=[f"base ({g.base_name})", f"graded ({g.target_name})"],
-                        title=f"{base.garment_id or 'pattern'}: graded nest")
-        written.append(out / "pattern.png")
-        tb = g.target_body
-        render_drape(out / "drape.png", res.x, res.mesh.triangles, res.mesh.triangle_panel,
-                     body_vertices=None if tb is None else tb.vertices,
-                     body_faces=None if tb is None else tb.faces,
-                     title=f"{base.garment_id or 'pattern'} graded to {g.target_name}")
-        written.append(out / "drape.png")
-
     report = dict(g.report)
     if inputs is not None:
         report["inputs"] = dict(inputs)
-    atomic_write_text(out / "report.json", _json.dumps(report, indent=1, default=json_default) + "\n")
-    written.append(out / "report.json")
-    return written
+
+    def write_report():
+        atomic_write_text(out / "report.json", _json.dumps(report, indent=1, default=json_default) + "\n")
+
+    write_report()
+
+    def nest(path):
+        from seamfit.pattern.nest_png import render_nest_png
+        render_nest_png(path, [base, graded], labels=labels, title=f"{base.garment_id or 'pattern'}: graded nest")
+
+    def drape(path):
+        from seamfit.sim.render import render_drape
+        tb = g.target_body
+        render_drape(path, res.x, res.mesh.triangles, res.mesh.triangle_panel,
+                     body_vertices=None if tb is None else tb.vertices,
+                     body_faces=None if tb is None else tb.faces,
+                     title=f"{base.garment_id or 'pattern'} graded to {g.target_name}")
+
+    report["pictures"] = (draw_pictures(out, dict(zip(PICTURES, (nest, drape))), command="grade") if picture
+                          else skipped(PICTURES))
+    write_report()
+    return [out / name for name in ("pattern.json", "pattern.svg", "garment.obj", "report.json")] + [
+        out / name for name, s in report["pictures"].items() if s.get("written")]

@@ -14,8 +14,11 @@ DIR receives graded.blend (bodies, base pattern, adjusted pattern, draped garmen
 (pattern.json, pattern.svg, garment.obj, report.json, and pattern.png and drape.png where matplotlib is
 installed). The seamfit extension must be installed in that Blender, or given with
 --addon-zip (then it is installed into a temporary folder, not into your Blender).
-Exit status: 0 done, 1 the optimization stopped at its budget (files still written),
-2 bad input or failure.
+The folder is written as a set, as `seamfit grade` writes it: a non-empty DIR is replaced
+only with --force, never when it holds an input, and a failed or interrupted run leaves it
+as it was.
+Exit status: 0 results written (report.json says whether the optimization converged; with
+--fail-unconverged a run that stopped at its budget exits 1), 2 bad input or failure.
 """
 from __future__ import annotations
 
@@ -58,6 +61,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-iterations", metavar="N", type=int, default=None, help="outer iteration budget")
     p.add_argument("--device", choices=["auto", "cpu", "cuda"], default=None)
     p.add_argument("--no-picture", action="store_true", help="do not write pattern.png and drape.png")
+    p.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    p.add_argument("--fail-unconverged", action="store_true",
+                   help="exit 1 when the optimization stopped at its budget (the results are still written)")
     p.add_argument("--drape", action="store_true", help="also keep the base garment draped on the base body")
     p.add_argument("--addon-zip", type=Path, default=None,
                    help="install this seamfit extension zip into a temporary folder and use it")
@@ -156,7 +162,34 @@ def main() -> int:
     import bpy
 
     addon = importlib.import_module(module)
+    from seamfit.errors import SeamfitError
+    from seamfit.output_set import OutputSet
     s = bpy.context.scene.seamfit
+    inputs = {"pattern": str(args.pattern), "base_body": str(args.base_body),
+              "target_body": str(args.target_body)}
+    try:
+        # Opened before the grading: a folder that would be refused is refused at once.
+        with OutputSet(args.out, inputs=list(inputs.values()), force=args.force) as tmp:
+            result = _grade(bpy, addon, s, args)
+            try:
+                written = addon.compute.write_grade_files(tmp, result, picture=not args.no_picture, inputs=inputs)
+            except addon.compute.user_errors() as exc:
+                fail(str(exc))
+            # Blender writes the .blend next to the target and renames it into place.
+            bpy.ops.wm.save_as_mainfile(filepath=str((tmp / "graded.blend").resolve()), check_existing=False,
+                                        copy=True)
+    except SeamfitError as exc:
+        fail(str(exc))
+    for path in [*written, tmp / "graded.blend"]:
+        print(f"batch_grade: wrote {args.out / path.name}")
+    r = result.report
+    print(f"batch_grade: {r['method']}: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} in "
+          f"{r['outer_iterations']} iterations ({r['message']})")
+    return 1 if args.fail_unconverged and not result.converged else 0
+
+
+def _grade(bpy, addon, s, args):
+    """Import the inputs into the scene and run the extension's Adjust; its result."""
     try:
         bpy.ops.seamfit.import_pattern(filepath=str(args.pattern))
         s.base_body = _import_body(args.base_body)
@@ -167,23 +200,7 @@ def main() -> int:
         bpy.ops.seamfit.adjust()
     except RuntimeError as exc:       # an operator's error report
         fail(str(exc).removeprefix("Error: ").strip())
-
-    result = addon.solve.last_result("adjust")
-    try:
-        inputs = {"pattern": str(args.pattern), "base_body": str(args.base_body),
-                  "target_body": str(args.target_body)}
-        written = addon.compute.write_grade_files(args.out, result, picture=not args.no_picture, inputs=inputs)
-    except addon.compute.user_errors() as exc:
-        fail(str(exc))
-    blend = args.out / "graded.blend"
-    # Blender writes the .blend next to the target and renames it into place.
-    bpy.ops.wm.save_as_mainfile(filepath=str(blend.resolve()), check_existing=False, copy=True)
-    for path in [*written, blend]:
-        print(f"batch_grade: wrote {path}")
-    r = result.report
-    print(f"batch_grade: {r['method']}: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} in "
-          f"{r['outer_iterations']} iterations ({r['message']})")
-    return 0 if result.converged else 1
+    return addon.solve.last_result("adjust")
 
 
 if __name__ == "__main__":

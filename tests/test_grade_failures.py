@@ -59,12 +59,13 @@ def test_an_unsettled_base_drape_is_used_only_when_asked_and_never_cached(tmp_pa
 
 
 def test_a_target_too_far_for_the_budget_returns_the_best_pattern_marked_not_converged():
-    # A target 25 % wider than the base body: no hope of converging in 6 outer iterations.
+    # A target 25 % wider than the base body, graded from the unchanged base pattern: no hope
+    # of converging in 6 outer iterations.
     wide = load_body(B0)
     c = wide.vertices.mean(axis=0)
     wide.vertices = np.c_[(wide.vertices[:, :2] - c[:2]) * 1.25 + c[:2], wide.vertices[:, 2]]
     res = grade(load_pattern(PATTERN), load_body(B0), wide,
-                GradeSettings(**COARSE, max_outer_iterations=6, checkpoint_every=3))
+                GradeSettings(**COARSE, start="base", max_outer_iterations=6, checkpoint_every=3))
     rep = res.report
     assert rep["converged"] is False and rep["message"] == "iteration limit"
     assert np.isfinite(rep["objective_final"]) and rep["objective_final"] <= rep["objective_initial"]

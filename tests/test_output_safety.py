@@ -291,11 +291,20 @@ def test_an_output_under_a_regular_file_fails_before_computing(tmp_path, capsys,
     assert blocker.read_text() == "not a folder"
 
 
-@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
-def test_a_read_only_parent_fails_before_computing(tmp_path, capsys):
+def test_a_read_only_parent_fails_before_computing(tmp_path, capsys, monkeypatch):
     ro = tmp_path / "ro"
     ro.mkdir()
     ro.chmod(0o555)
+    if os.geteuid() == 0:
+        # root may write into a read-only folder: refuse as the kernel refuses everyone else.
+        import tempfile
+        real_mkdtemp = tempfile.mkdtemp
+
+        def mkdtemp(*a, dir=None, **kw):
+            if dir is not None and not (os.stat(dir).st_mode & 0o222):
+                raise PermissionError(13, "Permission denied", str(dir))
+            return real_mkdtemp(*a, dir=dir, **kw)
+        monkeypatch.setattr("seamfit.output_set.tempfile.mkdtemp", mkdtemp)
     try:
         code, err, secs = run(capsys, *grade_args(PENCIL, ro / "out"))
     finally:

@@ -29,7 +29,7 @@ def test_batch_script_writes_the_cli_files_and_a_blend(addon_zip, cli_grade, tmp
     out = tmp_out / "batch"
     proc = run_batch([str(PENCIL), "--base-body", str(BODY_BASE), "--target-body", str(BODY_TARGET),
                       "--out", str(out), "--addon-zip", str(addon_zip), "--no-picture", *GRADE_ARGS], cwd=tmp_out)
-    assert proc.returncode == (0 if cli_report["converged"] else 1), proc.stderr[-3000:]
+    assert proc.returncode == 0, proc.stderr[-3000:]   # results written, converged or not
     assert sorted(p.name for p in out.iterdir()) == sorted(
         [p.name for p in cli_out.iterdir()] + ["graded.blend"])
     # The same adjusted pattern and report as the command line.

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import signal
 import sys
 
@@ -49,7 +50,15 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except SeamfitError as exc:
-        print(f"seamfit {args.command}: error: {exc}", file=sys.stderr)
+        _print_errors(args.command, exc.lines())
+        return 2
+    except OSError as exc:                       # disk full, permissions, ... while writing
+        where = f"{exc.filename}: " if exc.filename else ""
+        _print_errors(args.command, [f"{where}{exc.strerror or exc}"])
+        return 2
+    except MemoryError:
+        _print_errors(args.command, ["out of memory; try a larger --edge-length or spacing, or a "
+                                     "smaller input (docs/cli.md, Limits)"])
         return 2
     except Terminated:
         print(f"seamfit {args.command}: terminated (SIGTERM)", file=sys.stderr)
@@ -57,9 +66,26 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"seamfit {args.command}: interrupted (SIGINT)", file=sys.stderr)
         return 128 + signal.SIGINT
+    except Exception as exc:                     # a bug: one line, the traceback on request
+        if os.environ.get("SEAMFIT_TRACEBACK"):
+            raise
+        print(f"seamfit {args.command}: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} "
+              "(a bug in seamfit; SEAMFIT_TRACEBACK=1 shows where)", file=sys.stderr)
+        return 3
     finally:
         if installed:
             signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+
+
+MAX_ERROR_LINES = 10
+
+
+def _print_errors(command: str, lines: list[str]) -> None:
+    for line in lines[:MAX_ERROR_LINES]:
+        print(f"seamfit {command}: error: {line}", file=sys.stderr)
+    if len(lines) > MAX_ERROR_LINES:
+        print(f"seamfit {command}: error: ... and {len(lines) - MAX_ERROR_LINES} more "
+              "(seamfit validate lists them all)", file=sys.stderr)
 
 
 def _install_sigterm():

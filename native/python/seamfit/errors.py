@@ -4,9 +4,24 @@
 class SeamfitError(Exception):
     """Base class for every error seamfit reports to a user."""
 
+    def lines(self) -> list[str]:
+        """The message as the command line prints it: one line per problem."""
+        return [" ".join(str(self).split("\n"))]
+
 
 class PatternError(SeamfitError):
     """A pattern file or pattern object is invalid."""
+
+
+class ValidationError(PatternError):
+    """A pattern failed its checks; ``problems`` lists them, each naming what is at fault."""
+
+    def __init__(self, message: str, problems: list[str]):
+        super().__init__(message)
+        self.problems = list(problems)
+
+    def lines(self) -> list[str]:
+        return list(self.problems) or super().lines()
 
 
 class BodyError(SeamfitError):
@@ -19,3 +34,7 @@ class SolveError(SeamfitError):
 
 class DeviceError(SeamfitError):
     """The requested compute device is not available."""
+
+
+class LimitError(SeamfitError):
+    """An input is larger than a resource limit (seamfit.limits) allows."""

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import PatternError
+from ..errors import ValidationError
 from .model import EDGE_KINDS, Panel, Pattern, StitchSide, range_indices
 
 # Non-gathered stitch sides may differ by max(SEAM_TOLERANCE_CM, SEAM_TOLERANCE_REL * longer
@@ -371,12 +371,12 @@ def validate_pattern(pattern: Pattern, *, seam_tolerance_cm: float = SEAM_TOLERA
 
 
 def check_pattern(pattern: Pattern, **tolerances) -> ValidationReport:
-    """Validate and raise PatternError listing every error; returns the report (with any
+    """Validate and raise ValidationError (a PatternError) listing every error; returns the report (with any
     warnings) when there are none."""
     rep = validate_pattern(pattern, **tolerances)
     if rep.errors:
-        raise PatternError(f"{rep.source}: invalid pattern, {len(rep.errors)} error(s):\n"
-                           + "\n".join(f"  - {m}" for m in rep.errors))
+        raise ValidationError(f"{rep.source}: invalid pattern, {len(rep.errors)} error(s):\n"
+                              + "\n".join(f"  - {m}" for m in rep.errors), rep.errors)
     return rep
 
 

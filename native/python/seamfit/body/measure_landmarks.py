@@ -37,7 +37,7 @@ def landmark_measurements(s, body: Body, lm: dict, out: dict, tapes: dict | None
     found: dict = {}
     if "underbust_ring" in lm:
         ring = np.asarray(lm["underbust_ring"])
-        front = ring[V[ring, 1] < V[ring, 1].mean()]      # the body faces -Y
+        front = ring[V[ring, 1] < np.median(V[ring, 1])]     # the front half: the body faces -Y
         lv["underbust"] = z = float(V[front, 2].mean())
         found["underbust"] = horizontal_girth_tape(s, z)
     if "shoulder_point_L" in lm and "shoulder_point_R" in lm:

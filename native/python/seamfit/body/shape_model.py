@@ -25,7 +25,7 @@ import numpy as np
 
 from .io import Body
 
-__all__ = ["LOCAL_MODIFIERS", "ShapeParameters", "body_from_shape", "hm08_faces", "hm08_parts",
+__all__ = ["LOCAL_MODIFIERS", "ShapeParameters", "body_from_shape", "hm08_faces", "hm08_landmarks",
            "shape_vertices"]
 
 DATA = Path(__file__).resolve().parent / "data" / "hm08_model.npz"
@@ -53,7 +53,9 @@ class _Model:
         with np.load(path) as z:
             self.base = z["base"].astype(np.float64)
             self.triangles = z["triangles"].astype(np.int32)
-            self.parts = z["parts"].copy()
+            self.landmarks = {str(k): int(v) for k, v in zip(z["landmark_names"], z["landmark_vertices"])}
+            for ring in ("waist_ring", "underbust_ring", "neck_ring"):
+                self.landmarks[ring] = z[ring].astype(int).tolist()
             names = [str(n) for n in z["target_names"]]
             ptr, idx, off = z["target_ptr"], z["target_index"], z["target_offset"]
             self.targets = {n: (idx[ptr[k]:ptr[k + 1]].astype(np.int64),
@@ -110,10 +112,11 @@ def hm08_faces() -> np.ndarray:
     return _model().triangles
 
 
-def hm08_parts() -> np.ndarray:
-    """Per-vertex body part from the skinning weights: 0 torso, 1/2 left/right arm,
-    3/4 left/right leg, 5 head and neck."""
-    return _model().parts
+def hm08_landmarks() -> dict:
+    """The measuring landmarks of every hm08 body: named vertices (those of
+    sample_files/bodies/landmarks.json) and the edge loops ``waist_ring`` (MakeHuman's
+    natural waist), ``underbust_ring`` and ``neck_ring``, for ``body_measurements``."""
+    return {k: (list(v) if isinstance(v, list) else v) for k, v in _model().landmarks.items()}
 
 
 def body_from_shape(shape: ShapeParameters, name: str = "body") -> Body:

@@ -93,11 +93,11 @@ SDF_CORRUPTIONS = {"nan field": _nan_field, "mismatched dims": _wrong_dims, "shi
 @pytest.mark.parametrize("kind", [*SDF_CORRUPTIONS, "another key's entry", "truncated file"])
 def test_bad_sdf_entry_is_rejected_rebuilt_and_reported(kind, cache_dir, body, caplog):
     clean = build_sdf(body, spacing=H)
-    entry = cache_dir / f"{clean.info['cache_key']}.npz"
+    entry = cache_dir / "sdf" / f"{clean.info['cache_key']}.npz"
     assert entry.is_file()
     if kind == "another key's entry":
         other = build_sdf(body, spacing=H * 1.2)
-        entry.write_bytes((cache_dir / f"{other.info['cache_key']}.npz").read_bytes())
+        entry.write_bytes((cache_dir / "sdf" / f"{other.info['cache_key']}.npz").read_bytes())
     elif kind == "truncated file":
         truncate(entry)
     else:
@@ -125,7 +125,7 @@ def test_sdf_file_with_nan_values_is_refused(tmp_path, body):
 def test_warning_is_one_line_on_stderr(cache_dir, body):
     """Without any logging set up (the command line), the report is one line on stderr."""
     clean = build_sdf(body, spacing=H)
-    entry = cache_dir / f"{clean.info['cache_key']}.npz"
+    entry = cache_dir / "sdf" / f"{clean.info['cache_key']}.npz"
     rewrite(entry, _nan_field)
     script = (f"from seamfit.body import build_sdf, load_body\n"
               f"assert build_sdf(load_body({str(B0)!r}), spacing={H}).source == 'built'\n")
@@ -206,7 +206,7 @@ def test_grade_from_a_poisoned_cache_equals_a_clean_grade(cache_dir, caplog):
 
     clean = run()
     drapes = list((cache_dir / "drape").glob("*.npz"))
-    fields = list(cache_dir.glob("*.npz"))
+    fields = list((cache_dir / "sdf").glob("*.npz"))
     assert len(drapes) == 1 and len(fields) == 2
     rewrite(drapes[0], _nan_drape)
     for f in fields:
@@ -295,7 +295,7 @@ def test_size_limit_evicts_least_recently_used(cache_dir, monkeypatch, body):
     # SDFs count too (they sit at the cache root when SEAMFIT_CACHE_DIR is set)
     monkeypatch.setenv("SEAMFIT_CACHE_MAX_MB", "4")
     sdf = build_sdf(body, spacing=0.02)
-    assert (cache_dir / f"{sdf.info['cache_key']}.npz").exists()
+    assert (cache_dir / "sdf" / f"{sdf.info['cache_key']}.npz").exists()
     size = sum(p.stat().st_size for p in cache_dir.rglob("*.npz"))
     monkeypatch.setenv("SEAMFIT_CACHE_MAX_MB", str((size - 1) / 2**20))
     assert cache.enforce_limit() >= 1

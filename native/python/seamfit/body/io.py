@@ -55,7 +55,9 @@ class Body:
 
 def load_body(path) -> Body:
     """Read an OBJ or PLY body mesh (by extension; PLY also by its magic line)."""
+    from ..limits import check_input_file
     path = Path(path)
+    check_input_file(path, "body", BodyError)
     try:
         data = path.read_bytes()
     except FileNotFoundError:
@@ -290,6 +292,8 @@ def _read_ply(data: bytes, where: str) -> tuple[np.ndarray, np.ndarray]:
             if tok[0] == "format":
                 fmt = tok[1]
             elif tok[0] == "element":
+                if int(tok[2]) < 0:
+                    raise ValueError("negative element count")
                 elements.append(_PlyElement(tok[1], int(tok[2]), []))
             elif tok[0] == "property":
                 if not elements:
@@ -362,6 +366,11 @@ def _ply_binary(data: bytes, offset: int, elements, endian: str, where: str) -> 
     return tables
 
 
+def _list_count(k: int, el, name: str, row: int, where: str) -> None:
+    if k < 0:   # a signed count type read as a negative length
+        raise BodyError(f"{where}: PLY element '{el.name}' row {row}: list '{name}' has length {k}")
+
+
 def _ply_binary_lists(data, offset, el, endian, where):
     """An element with list properties. Fast path: every list has the length of
     the first row's (all triangles, say); otherwise row by row."""
@@ -376,6 +385,7 @@ def _ply_binary_lists(data, offset, el, endian, where):
             if pos + cdt.itemsize > len(data):
                 raise BodyError(f"{where}: PLY file is truncated in element '{el.name}' (row 0)")
             k = int(np.frombuffer(data, dtype=cdt, count=1, offset=pos)[0])
+            _list_count(k, el, n, 0, where)
             fields += [(n + "#n", endian + t[0]), (n, endian + t[1], (k,))]
             pos += cdt.itemsize + k * np.dtype(t[1]).itemsize
         else:
@@ -405,6 +415,7 @@ def _ply_binary_lists(data, offset, el, endian, where):
                 if pos + cdt.itemsize > len(data):
                     raise BodyError(f"{where}: PLY file is truncated in element '{el.name}' (row {row})")
                 k = int(np.frombuffer(data, dtype=cdt, count=1, offset=pos)[0])
+                _list_count(k, el, n, row, where)
                 pos += cdt.itemsize
                 if pos + k * idt.itemsize > len(data):
                     raise BodyError(f"{where}: PLY file is truncated in element '{el.name}' (row {row})")

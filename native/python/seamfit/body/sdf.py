@@ -21,7 +21,6 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-import os
 import time
 import zipfile
 from collections import OrderedDict
@@ -144,8 +143,8 @@ def clear_memory_cache() -> None:
 
 
 def sdf_cache_dir() -> Path:
-    env = os.environ.get("SEAMFIT_CACHE_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "seamfit" / "sdf"
+    """``sdf/`` under the cache root, as the other kinds' folders (also with $SEAMFIT_CACHE_DIR)."""
+    return disk_cache.cache_root() / "sdf"
 
 
 def _norm_bounds(bounds):
@@ -217,6 +216,21 @@ def _from_disk(path: Path, key: str, body: Body, spacing: float, padding: float,
 
 # ----------------------------------------------------------------------------- build
 
+def _referenced_only(body: Body) -> Body:
+    """The body without vertices that no face uses: they are not part of the surface, and
+    one stray vertex far away would otherwise stretch the grid's box to it."""
+    f = body.faces
+    if f.size == 0 or f.min() < 0 or f.max() >= body.n_vertices:
+        return body                               # check_body reports it
+    used = np.zeros(body.n_vertices, bool)
+    used[f.ravel()] = True
+    if used.all():
+        return body
+    new_index = np.cumsum(used) - 1
+    return Body(body.vertices[used], new_index[f], name=body.name, source_file=body.source_file,
+                meta=dict(body.meta))
+
+
 def build_sdf(body: Body, spacing: float = DEFAULT_SPACING, padding: float = DEFAULT_PADDING, bounds=None,
               cache: bool = True, threads: int = 0) -> SignedDistanceField:
     """Signed distance field of ``body`` (negative inside) with node spacing
@@ -230,6 +244,7 @@ def build_sdf(body: Body, spacing: float = DEFAULT_SPACING, padding: float = DEF
     nb = _norm_bounds(bounds)
     if nb is not None and not (all(np.isfinite(nb)) and all(nb[a + 3] > nb[a] for a in range(3))):
         raise BodyError(f"{body.where}: bounds need finite values with max > min on every axis, got {bounds!r}")
+    body = _referenced_only(body)
     key = sdf_cache_key(body, spacing, padding, nb)
     rejected: list = []
     if cache:

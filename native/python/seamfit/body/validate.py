@@ -24,6 +24,9 @@ __all__ = ["BodyReport", "validate_body", "check_body"]
 
 MIN_HEIGHT_M = 0.3
 MAX_HEIGHT_M = 3.0
+# A body's vertices lie within metres of the origin; beyond a kilometre the file is broken
+# (products of coordinates overflow) rather than a body in other units.
+MAX_COORD_M = 1000.0
 _SHOW = 5  # how many offending indices a message lists
 
 
@@ -77,12 +80,20 @@ def validate_body(body: Body) -> BodyReport:
 
     used = np.zeros(nv, bool)
     used[F.ravel()] = True
+    far = np.flatnonzero(used & (np.abs(V).max(axis=1) > MAX_COORD_M))
+    if far.size:
+        rep.errors.append(f"{where}: {far.size} vertices lie more than {MAX_COORD_M:g} m from the origin "
+                          f"(vertex {_few(far)} at {V[far[0]].tolist()}); seamfit needs a body in metres")
+        return rep
     P = V[used]
     lo, hi = P.min(axis=0), P.max(axis=0)
     ext = hi - lo
     height = float(ext[2])
     rep.stats.update(bbox=[lo.tolist(), hi.tolist()], height_m=height,
                      unreferenced_vertices=int(nv - used.sum()))
+    if not used.all():
+        rep.warnings.append(f"{where}: {int(nv - used.sum())} vertices are used by no face (e.g. vertex "
+                            f"{_few(np.flatnonzero(~used))}); they are ignored")
     if height > MAX_HEIGHT_M or height < MIN_HEIGHT_M:
         guess = " (looks like millimetres)" if height > 300 else " (looks like centimetres)" if height > 30 else ""
         rep.errors.append(f"{where}: the body is {height:.4g} units tall along Z; seamfit needs metres with Z up "

@@ -123,7 +123,9 @@ def _run_body(args) -> int:
         errors = list(getattr(report, "errors", []) or [])
     warnings = list(getattr(report, "warnings", []) or [])
     if not args.quiet:
-        print(f"{args.file}: body" + (f"\n  {report}" if report is not None and not errors else ""))
+        print(f"{args.file}: body")
+        if report is not None and not errors:
+            print(_body_summary(report.stats))
     for m in warnings:
         print(f"warning: {m}")
     for m in errors:
@@ -132,3 +134,10 @@ def _run_body(args) -> int:
     if not args.quiet:
         print("INVALID" if failed else "OK")
     return 1 if failed else 0
+
+
+def _body_summary(st: dict) -> str:
+    yes = {True: "yes", False: "no"}
+    return (f"  vertices: {st['n_vertices']}, faces: {st['n_faces']}, height: {st['height_m']:.3f} m, "
+            f"volume: {st['volume_litres']:.1f} litres, components: {st['components']}, "
+            f"watertight: {yes[st['watertight']]}, inverted: {yes[st['inverted']]}")

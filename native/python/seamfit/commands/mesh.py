@@ -8,12 +8,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from pathlib import Path
 
-from ..errors import SeamfitError
 from ..output_set import OutputSet, add_force_argument
 
 EPILOG = """\
@@ -43,15 +41,15 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from ..mesh import build_sewn_mesh, write_obj
-    from ..pattern import load_pattern, write_svg
+    from ..pattern import write_svg
     from ..fileio import atomic_write_text
+    from .checks import checked_pattern, number
 
-    h = args.edge_length
-    if not (math.isfinite(h) and h > 0):
-        raise SeamfitError(f"--edge-length must be a positive number of cm, got {h}")
+    h = number("--edge-length", args.edge_length)
     out = Path(args.out)
     t0 = time.perf_counter()
-    pattern = load_pattern(args.pattern)
+    # the checks of seamfit validate and the size limits, before any meshing
+    pattern = checked_pattern(args.pattern, h, warn=None if args.quiet else _warn)
     t_load = time.perf_counter() - t0
     with OutputSet(out, inputs=[args.pattern], force=args.force) as tmp:
         mesh = build_sewn_mesh(pattern, h)
@@ -92,3 +90,7 @@ def run(args) -> int:
               f"max area error {100 * stats['max_area_error']:.3f} %", file=sys.stdout)
         print(f"wrote {out / 'mesh.obj'}, {out / 'pattern.svg'}, {out / 'report.json'}")
     return 0
+
+
+def _warn(message: str) -> None:
+    print(f"seamfit mesh: warning: {message}", file=sys.stderr)

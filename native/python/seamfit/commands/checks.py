@@ -1,0 +1,53 @@
+"""What every command checks before its expensive work: options, then inputs, with the
+same checks and messages as ``seamfit validate`` (seamfit.pattern.validate,
+seamfit.body.validate) and the resource limits of seamfit.limits."""
+from __future__ import annotations
+
+import math
+
+from ..errors import SeamfitError
+
+
+def number(option: str, value: float, *, allow_zero: bool = False) -> float:
+    """A finite option value > 0 (>= 0 with ``allow_zero``)."""
+    ok = math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
+    if not ok:
+        raise SeamfitError(f"{option} {value:g}: must be a {'non-negative' if allow_zero else 'positive'} "
+                           "finite number")
+    return value
+
+
+def whole(option: str, value: int | None, minimum: int) -> None:
+    if value is not None and value < minimum:
+        raise SeamfitError(f"{option} {value}: must be >= {minimum}")
+
+
+def checked_pattern(path, edge_length_cm: float | None = None, warn=None):
+    """The pattern at ``path``, read within the size limits and validated as ``seamfit
+    validate`` does (ValidationError lists every error; ``warn`` gets each warning); with
+    ``edge_length_cm``, also the mesh it would make held to the mesh size limit."""
+    from ..limits import check_mesh_size
+    from ..pattern import check_pattern, load_pattern
+    pattern = load_pattern(path)
+    for m in check_pattern(pattern).warnings:
+        if warn is not None:
+            warn(m)
+    if edge_length_cm is not None:
+        check_mesh_size(pattern, edge_length_cm)
+    return pattern
+
+
+def checked_body(path, warn=None):
+    """The body at ``path`` with its faces oriented consistently outward (as ``seamfit
+    validate`` repairs them and the SDF uses them); BodyError when it fails its checks,
+    ``warn`` gets each warning."""
+    from ..body import Body, check_body, load_body
+    body = load_body(path)
+    rep = check_body(body)
+    for m in rep.warnings:
+        if warn is not None:
+            warn(m)
+    if rep.oriented_faces is not None and not (rep.oriented_faces == body.faces).all():
+        body = Body(body.vertices, rep.oriented_faces, name=body.name, source_file=body.source_file,
+                    meta=dict(body.meta))
+    return body

@@ -14,12 +14,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from pathlib import Path
 
-from ..errors import SeamfitError
 from ..output_set import OutputSet, add_force_argument
 from ..pictures import draw_pictures, skipped
 
@@ -84,29 +82,30 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _positive(name: str, value: float, allow_zero: bool = False) -> float:
-    ok = math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
-    if not ok:
-        raise SeamfitError(f"{name} must be a {'non-negative' if allow_zero else 'positive'} number, got {value}")
-    return value
-
-
 def run(args) -> int:
-    from ..body import load_body
     from ..device import resolve_device
-    from ..pattern import load_pattern
+    from .checks import checked_body, checked_pattern, number, whole
 
     resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
-    _positive("--edge-length", args.edge_length)
-    _positive("--tolerance", args.tolerance)
-    _positive("--sdf-spacing", args.sdf_spacing)
-    _positive("--max-seconds", args.max_seconds, allow_zero=True)
-    if args.max_iterations is not None and args.max_iterations < 0:
-        raise SeamfitError(f"--max-iterations must be >= 0, got {args.max_iterations}")
+    number("--edge-length", args.edge_length)
+    number("--tolerance", args.tolerance)
+    number("--sdf-spacing", args.sdf_spacing)
+    number("--max-seconds", args.max_seconds, allow_zero=True)
+    for option in ("stretch_stiffness", "sewing_stiffness", "bending_stiffness", "density"):
+        number("--" + option.replace("_", "-"), getattr(args, option), allow_zero=option == "bending_stiffness")
+    whole("--max-iterations", args.max_iterations, 0)
+    from ..sim import SimSettings
+    SimSettings(method=args.method, tolerance=args.tolerance, mu=args.mu).validate()   # --mu in [0, 1]
     out = Path(args.out)
     t0 = time.perf_counter()
-    pattern = load_pattern(args.pattern)
-    body = load_body(args.body)
+
+    def warn(message: str) -> None:
+        if not args.quiet:
+            print(f"seamfit drape: warning: {message}", file=sys.stderr)
+
+    # the checks of seamfit validate and the size limits, before any meshing or SDF
+    pattern = checked_pattern(args.pattern, args.edge_length, warn)
+    body = checked_body(args.body, warn)
     with OutputSet(out, inputs=[args.pattern, args.body], force=args.force) as tmp:
         return _drape(args, pattern, body, tmp, out, t0)
 

@@ -72,7 +72,9 @@ def register(subparsers) -> None:
                    help=f"strength preset (default {d.preset}: by the pattern's garment type, see below)")
     for name in ("fix", "cur", "dis", "smo", "str", "pos", "seam"):
         p.add_argument(f"--{name}", type=float, default=None, metavar="DELTA",
-                       help=f"override the preset's {name} strength (0 skips the term)")
+                       help=f"override the preset's {name} strength " +
+                            ("(> 0: R^fix also shapes the search's preconditioner)" if name == "fix"
+                             else "(0 skips the term)"))
     p.add_argument("--edge-length", metavar="CM", type=float, default=d.edge_length_cm,
                    help=f"mesh edge length in cm (default {d.edge_length_cm})")
     p.add_argument("--sdf-spacing", metavar="M", type=float, default=d.sdf_spacing,
@@ -111,17 +113,35 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from ..body import load_body
     from ..device import resolve_device
     from ..opt.grade import GradeSettings
     from ..opt.presets import preset
     from ..pattern import load_pattern
+    from .checks import checked_body, checked_pattern, number, whole
 
     resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
     out = Path(args.out)
-    base_pattern = load_pattern(args.pattern)
+    # Options, inputs and --truth are checked before any meshing, drape or search.
+    number("--edge-length", args.edge_length)
+    number("--sdf-spacing", args.sdf_spacing)
+    number("--sdf-margin", args.sdf_margin, allow_zero=True)
+    number("--time-budget", args.time_budget, allow_zero=True)
+    number("--adjoint-forcing", args.adjoint_forcing, allow_zero=True)
+    whole("--inner-iterations", args.inner_iterations, 1)
+    whole("--checkpoint-every", args.checkpoint_every, 1)
+    whole("--max-iterations", args.max_iterations, 0)
+    overrides = _strength_overrides(args)
+
+    def warn(message: str) -> None:
+        if not args.quiet:
+            print(f"seamfit grade: warning: {message}", file=sys.stderr)
+
+    base_pattern = checked_pattern(args.pattern, args.edge_length, warn)
+    truth = load_pattern(args.truth) if args.truth is not None else None
+    base_body = checked_body(args.base_body, warn)
+    target_body = checked_body(args.target_body, warn)
+    _check_same_topology(base_body, target_body)
     strengths = preset(args.preset, base_pattern.garment_type).strengths
-    overrides = {k: getattr(args, k) for k in ("fix", "cur", "dis", "smo", "str", "pos", "seam") if getattr(args, k) is not None}
     if overrides:
         from dataclasses import replace
         strengths = replace(strengths, **overrides)
@@ -132,6 +152,7 @@ def run(args) -> int:
                              checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,
                              time_budget_s=args.time_budget, device=args.device,
                              adjoint_forcing=args.adjoint_forcing)
+    settings.validate()
     t0 = time.perf_counter()
 
     def progress(info):
@@ -146,11 +167,9 @@ def run(args) -> int:
             print(f"[{time.perf_counter() - t0:7.1f}s] {info['stage']}", file=sys.stderr, flush=True)
         return None
 
-    base_body = load_body(args.base_body)
-    target_body = load_body(args.target_body)
     inputs = [args.pattern, args.base_body, args.target_body, args.truth]
     with OutputSet(out, inputs=inputs, force=args.force) as tmp:
-        report = _grade(args, settings, progress, base_pattern, base_body, target_body, tmp)
+        report = _grade(args, settings, progress, base_pattern, base_body, target_body, truth, tmp)
     if not args.quiet:
         pics = "".join(f", {name}" for name in written(report["pictures"]))
         print(f"wrote {out}/pattern.json, pattern.svg, garment.obj, report.json{pics}", file=sys.stderr)
@@ -160,20 +179,52 @@ def run(args) -> int:
     return 1 if args.fail_unconverged and not report["converged"] else 0
 
 
-def _grade(args, settings, progress, base_pattern, base_body, target_body, tmp: Path) -> dict:
+def _strength_overrides(args) -> dict:
+    """--fix ... --seam as given, each checked as the strengths themselves check it; --fix
+    also > 0: R^fix shapes the search's preconditioner, which needs it positive definite."""
+    from ..errors import SeamfitError
+    from ..opt.costs import Strengths
+    overrides = {}
+    for name in ("fix", "cur", "dis", "smo", "str", "pos", "seam"):
+        value = getattr(args, name)
+        if value is None:
+            continue
+        try:
+            Strengths(**{name: value})
+        except ValueError as exc:
+            raise SeamfitError(f"--{name} {value:g}: {exc}") from None
+        if name == "fix" and not value > 0:
+            raise SeamfitError(f"--fix {value:g}: must be > 0: R^fix also shapes the search's preconditioner, "
+                               "which needs it positive (a small value such as 0.001 weakens the term)")
+        overrides[name] = value
+    return overrides
+
+
+def _check_same_topology(base, target) -> None:
+    """The search moves the garment from one body to the other vertex by vertex."""
+    import numpy as np
+    from ..errors import BodyError
+    if base.n_vertices != target.n_vertices or not np.array_equal(base.faces, target.faces):
+        same_sizes = base.n_vertices == target.n_vertices and base.n_faces == target.n_faces
+        raise BodyError(f"{target.where}: does not share the base body's mesh topology ({base.where}: "
+                        f"{base.n_vertices} vertices, {base.n_faces} faces; {target.where}: {target.n_vertices} "
+                        f"vertices, {target.n_faces} faces{', the faces differ' if same_sizes else ''}); "
+                        "grade needs one body mesh in two shapes")
+
+
+def _grade(args, settings, progress, base_pattern, base_body, target_body, truth, tmp: Path) -> dict:
     """Grade, then write the set into ``tmp`` (moved to --out afterwards); the report."""
     from ..fileio import atomic_write_text, json_default
     from ..mesh import write_obj
     from ..opt.grade import grade
-    from ..pattern import load_pattern, save_pattern, write_svg
+    from ..pattern import save_pattern, write_svg
 
     result = grade(base_pattern, base_body, target_body, settings, progress=progress)
     report = dict(result.report)
     report["inputs"] = {"pattern": str(args.pattern), "base_body": str(args.base_body),
                         "target_body": str(args.target_body)}
-    if args.truth is not None:
+    if truth is not None:
         from ..pattern.compare import baseline_errors, landmark_errors
-        truth = load_pattern(args.truth)
         report["accuracy"] = {"truth": str(args.truth),
                               "graded": landmark_errors(result.pattern, truth).to_dict(),
                               "base_unchanged": baseline_errors(base_pattern, truth).to_dict()}

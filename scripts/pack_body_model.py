@@ -38,6 +38,7 @@ LOCAL = {                           # measurement key -> modifier (targets -incr
     "shoulder": "torso/measure-shoulder-dist", "nape_to_waist": "torso/measure-napetowaist-dist",
     "waist_to_hip": "torso/measure-waisttohip-dist", "upper_arm": "arms/measure-upperarm-circ",
     "thigh": "legs/measure-thigh-circ", "neck": "neck/measure-neck-circ",
+    "inseam": "legs/measure-upperleg-height",
     "neck_horiz": "neck/neck-scale-horiz", "neck_depth": "neck/neck-scale-depth",
 }
 LANDMARKS = Path(__file__).resolve().parents[1] / "sample_files/bodies/landmarks.json"

@@ -5,11 +5,19 @@
     check_body(body) -> BodyReport               raises BodyError listing every error
     build_sdf(body, spacing, padding, bounds, cache) -> SignedDistanceField
     body_measurements(body, landmarks=None) -> dict   height and tape girths (cm)
+    from_measurements(measurements, gender=None) -> MeasuredBody   a body made to measure
+    load_measurement_sets(path) -> [MeasurementSet]  seamfit JSON, Seamly2D .vit / .vst
+    hm08_landmarks() -> dict                     measuring landmarks of the sample bodies' mesh
 """
 from .io import Body, load_body, save_body
 from .validate import BodyReport, check_body, validate_body
 from .sdf import SignedDistanceField, build_sdf
-from .measure import body_measurements, cross_section_girth
+from .measure import MEASUREMENTS, body_measurements, cross_section_girth
+from .measurement_sets import MeasurementError, MeasurementSet, load_measurement_sets
+from .shape_model import hm08_landmarks
+from .from_measurements import MeasuredBody, from_measurements
 
-__all__ = ["Body", "BodyReport", "SignedDistanceField", "body_measurements", "build_sdf", "check_body",
-           "cross_section_girth", "load_body", "save_body", "validate_body"]
+__all__ = ["Body", "BodyReport", "MEASUREMENTS", "MeasuredBody", "MeasurementError", "MeasurementSet",
+           "SignedDistanceField", "body_measurements", "build_sdf", "check_body", "cross_section_girth",
+           "from_measurements", "hm08_landmarks", "load_body", "load_measurement_sets", "save_body",
+           "validate_body"]

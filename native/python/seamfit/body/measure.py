@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
+from scipy.spatial import ConvexHull, QhullError
 
 from ..errors import BodyError
 from .io import Body
@@ -160,7 +161,16 @@ class _Slicer:
 
 
 def _hull_perimeter(pts: np.ndarray) -> float:
-    """Perimeter of the 2-D convex hull (monotone chain)."""
+    """Perimeter of the 2-D convex hull (Qhull; a monotone chain where Qhull refuses
+    degenerate input such as collinear points)."""
+    if len(pts) >= 3:
+        try:
+            h = ConvexHull(pts)
+        except (QhullError, ValueError):
+            pass
+        else:
+            p = pts[h.vertices]
+            return float(np.linalg.norm(np.diff(np.vstack([p, p[:1]]), axis=0), axis=1).sum())
     pts = np.unique(np.round(pts, 12), axis=0)
     if len(pts) < 3:
         return float(2 * np.linalg.norm(pts[-1] - pts[0])) if len(pts) == 2 else 0.0
@@ -242,7 +252,7 @@ def _load_landmarks(landmarks) -> dict:
 
 
 MEASUREMENTS = ("height", "bust", "underbust", "waist", "hip", "shoulder", "nape_to_waist",
-                "waist_to_hip", "upper_arm", "thigh", "neck")
+                "waist_to_hip", "upper_arm", "thigh", "neck", "inseam")
 
 
 def body_measurements(body: Body, landmarks=None, tapes: bool = False) -> dict:
@@ -251,7 +261,7 @@ def body_measurements(body: Body, landmarks=None, tapes: bool = False) -> dict:
 
     With the hm08 landmarks (``seamfit.body.hm08_landmarks()``: named vertices and the
     waist, under-bust and neck rings) also underbust, shoulder, nape_to_waist,
-    waist_to_hip, upper_arm, thigh and neck (measure_landmarks.py), each taken where
+    waist_to_hip, upper_arm, thigh, neck and inseam (measure_landmarks.py), each taken where
     its landmarks are given. With ``tapes``, ``result["tapes"]`` holds a
     :class:`seamfit.body.tape.Tape` per measurement, to re-take it on a reshaped body."""
     s = _Slicer(body)

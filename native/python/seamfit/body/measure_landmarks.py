@@ -11,7 +11,8 @@ as the sample bodies were measured (sample_files/bodies, /data/bodies/README.md)
                  point -> elbow axis, through its midpoint;
   thigh          fullest tape girth of the left leg alone in [crotch - 10 cm, crotch - 1 cm];
   neck           tape girth in the least-squares plane of the neck ring, the section
-                 nearest the ring's centre.
+                 nearest the ring's centre;
+  inseam         height of the crotch vertex above the soles.
 
 Each is taken only when its landmarks are given. Tape girth = perimeter of the convex
 hull of the section in its plane, as for bust, waist and hip.
@@ -66,6 +67,8 @@ def landmark_measurements(s, body: Body, lm: dict, out: dict, tapes: dict | None
         c = ring.mean(axis=0)
         normal = np.linalg.svd(ring - c)[2][2]
         found["neck"] = _plane_girth_tape(body, normal if normal[2] > 0 else -normal, c, "neck")
+    if "crotch" in lm:
+        found["inseam"] = Tape.at_vertices("vertical", [lm["crotch"], int(np.argmin(V[:, 2]))], n, split=1)
     for key, tape in found.items():
         out[key] = tape.length(V)
     if tapes is not None:

@@ -8,8 +8,8 @@ A shape is a few numbers (:class:`ShapeParameters`):
   ``height`` and, for women, ``cupsize``, each in [0, 1]. A parameter p is split into
   anchor factors (min = max(0, 1 - 2p), max = max(0, 2p - 1), average = the rest) and the
   target named by a combination of anchors is added with the product of their factors;
-* local modifiers, one per measurement (the measure-* targets, plus neck-scale-horiz
-  and -depth), each in [-1, 1]: v > 0 adds the ``-incr`` target with weight v, v < 0
+* local modifiers, one per measurement (the measure-* targets; inseam is
+  measure-upperleg-height), plus neck-scale-horiz and -depth, each in [-1, 1]: v > 0 adds the ``-incr`` target with weight v, v < 0
   the ``-decr`` target with weight -v.
 
 The body is returned in seamfit's frame: metres, Z up, facing -Y, soles on z = 0, its
@@ -31,7 +31,7 @@ __all__ = ["LOCAL_MODIFIERS", "ShapeParameters", "body_from_shape", "hm08_faces"
 DATA = Path(__file__).resolve().parent / "data" / "hm08_model.npz"
 UNIT = 1e-4                         # packed offsets are integers of 0.1 mm
 LOCAL_MODIFIERS = ("bust", "underbust", "waist", "hip", "shoulder", "nape_to_waist", "waist_to_hip",
-                   "upper_arm", "thigh", "neck", "neck_horiz", "neck_depth")
+                   "upper_arm", "thigh", "neck", "inseam", "neck_horiz", "neck_depth")
 _WEIGHTS = ("minweight", "averageweight", "maxweight")
 
 

@@ -142,6 +142,11 @@ class OutputSet:
                                    f"{err.strerror or err}") from None
         else:
             self.discard()
+            if issubclass(exc_type, OSError):    # disk full, quota, a folder gone: name --out
+                name = Path(exc.filename).name if getattr(exc, "filename", None) else None
+                raise SeamfitError(f"{self.given}: could not write the results"
+                                   + (f" ({name})" if name else "") + f": {exc.strerror or exc}; "
+                                   "nothing was written") from exc
         return False
 
     # -------------------------------------------------------------- helpers

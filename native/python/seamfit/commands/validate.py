@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -59,7 +60,8 @@ def run(args) -> int:
         return _run_pattern(args)
     except SeamfitError as exc:
         # reported here too so the command behaves the same when called on its own
-        print(f"seamfit validate: error: {exc}", file=sys.stderr)
+        for line in exc.lines():
+            print(f"seamfit validate: error: {line}", file=sys.stderr)
         return 2
 
 
@@ -69,8 +71,8 @@ def _run_pattern(args) -> int:
     from ..pattern.io import read_pattern_file
     from ..pattern.validate import fix_pattern
 
-    if args.seam_tolerance < 0 or not 0 <= args.seam_tolerance_rel < 1:
-        raise SeamfitError("--seam-tolerance must be >= 0 and --seam-tolerance-rel in [0, 1)")
+    if not (args.seam_tolerance >= 0 and math.isfinite(args.seam_tolerance) and 0 <= args.seam_tolerance_rel < 1):
+        raise SeamfitError("--seam-tolerance must be a finite number >= 0 and --seam-tolerance-rel in [0, 1)")
     for out in (args.fix, args.svg):   # neither may replace the file being checked
         if out is not None:
             check_not_an_input(out, [args.file])

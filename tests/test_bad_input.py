@@ -376,3 +376,78 @@ def test_several_pattern_errors_are_one_line_each(tmp_path, capsys):
     code, _, err, secs = run(capsys, "mesh", pattern, "--out", tmp_path / "out")
     assert_refused(code, err, secs, "mesh", "unknown curve kind", "outside the outline")
     assert err.count("\n") == 2 and all(str(pattern) in line for line in err.splitlines())
+
+
+# ----------------------------------------------------------------------------- smaller cases
+
+def test_a_stray_far_vertex_does_not_stretch_the_field(tmp_path, capsys, monkeypatch):
+    """An unreferenced vertex at 1e308 once gave an all-+inf SDF, exit 0, and Infinity in the report."""
+    monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
+    body = write(tmp_path, "stray.obj", B0.read_text() + "v 1e308 1e308 1e308\n")
+    code, out, err, _ = run(capsys, "validate", body)
+    assert code == 0 and "1 vertices are used by no face (e.g. vertex 13380); they are ignored" in out
+    code, out, err, _ = run(capsys, "sdf", body, "--out", tmp_path / "s.npz", "--spacing", "0.02")
+    assert code == 0, err
+
+    def no_constants(name):
+        raise AssertionError(f"{name} in the report")
+    report = json.loads((tmp_path / "s.json").read_text(), parse_constant=no_constants)
+    assert -0.2 < report["min_phi"] < 0 < report["max_phi"] < 1
+    code, _, err, _ = run(capsys, "sdf", B0, "--out", tmp_path / "clean.npz", "--spacing", "0.02")
+    assert code == 0, err
+    clean = json.loads((tmp_path / "clean.json").read_text())
+    assert report["dims"] == clean["dims"] and report["origin"] == clean["origin"]   # the body's box
+    assert report["min_phi"] == clean["min_phi"] and report["max_phi"] == clean["max_phi"]
+
+
+def test_sdfs_are_cached_under_sdf_with_a_cache_dir(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
+    from seamfit.body import sdf as sdf_mod
+    sdf_mod.clear_memory_cache()
+    code, _, err, _ = run(capsys, "sdf", B0, "--out", tmp_path / "s.npz", "--spacing", "0.03")
+    assert code == 0, err
+    assert [p.parent.name for p in (tmp_path / "cache").rglob("*.npz")] == ["sdf"]
+
+
+def test_validate_summarises_a_body(capsys):
+    code, out, _, _ = run(capsys, "validate", B0)
+    assert code == 0 and "BodyReport(" not in out
+    assert ("  vertices: 13380, faces: 26756, height: 1.650 m, volume: 52.3 litres, components: 1, "
+            "watertight: yes, inverted: no") in out
+
+
+def test_truth_is_read_before_the_grading(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
+    truth = write(tmp_path, "truth.json", {"format": "sewpat-1", "panels": "none"})
+    code, _, err, secs = run(capsys, "grade", PENCIL, "--base-body", B0, "--target-body", B1, "--truth", truth,
+                             "--out", tmp_path / "out", *QUICK)
+    assert_refused(code, err, secs, "grade", truth, "panels must be a list")
+    assert not (tmp_path / "cache").exists()                # no SDF, no base drape
+
+
+def test_a_target_body_with_inverted_normals_is_graded(tmp_path, capsys, monkeypatch):
+    """validate repairs it (a warning); grade once refused it as another topology."""
+    monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
+    lines = [line if not line.startswith("f ") else "f " + " ".join(reversed(line.split()[1:]))
+             for line in B1.read_text().splitlines()]
+    inverted = write(tmp_path, "inverted.obj", "\n".join(lines) + "\n")
+    code, out, _, _ = run(capsys, "validate", inverted)
+    assert code == 0 and "inside-out" in out
+    code, _, err, _ = run(capsys, "grade", PENCIL, "--base-body", B0, "--target-body", inverted,
+                          "--out", tmp_path / "out", "--max-iterations", "1", *QUICK)
+    assert code == 0, err
+    assert "inside-out" in err and "topology" not in err
+    assert (tmp_path / "out" / "pattern.json").is_file()
+
+
+def test_another_topology_is_refused_before_the_base_drape(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
+    lines = B1.read_text().splitlines()
+    faces = [k for k, line in enumerate(lines) if line.startswith("f ")]
+    lines[faces[0]], lines[faces[1]] = lines[faces[1]], lines[faces[0]]
+    other = write(tmp_path, "other.obj", "\n".join(lines) + "\n")
+    code, _, err, secs = run(capsys, "grade", PENCIL, "--base-body", B0, "--target-body", other,
+                             "--out", tmp_path / "out", *QUICK)
+    assert_refused(code, err, secs, "grade", other, B0, "does not share the base body's mesh topology",
+                   "the faces differ")
+    assert not (tmp_path / "cache").exists()

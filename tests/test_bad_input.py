@@ -231,7 +231,7 @@ BAD_BODIES = {
     "PLY list count -1 (binary)": (_ply_binary_negative, ["face", "length -1"]),
     "PLY list count -1 (ascii)": (_ply_ascii_negative, ["PLY line 13", "'face'"]),
     "PLY element count -3": (_negative_element_count, ["PLY header line 3", "negative element count"]),
-    "1e308 coordinates": (_huge_coordinates, ["vertex 0", "1000 m from the origin"]),
+    "1e308 coordinates": (_huge_coordinates, ["vertex 0", "1000 km) from the origin"]),
     "a device (/dev/zero)": (lambda tmp: Path("/dev/zero"), ["is a device"]),
 }
 

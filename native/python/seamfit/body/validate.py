@@ -24,9 +24,9 @@ __all__ = ["BodyReport", "validate_body", "check_body"]
 
 MIN_HEIGHT_M = 0.3
 MAX_HEIGHT_M = 3.0
-# A body's vertices lie within metres of the origin; beyond a kilometre the file is broken
-# (products of coordinates overflow) rather than a body in other units.
-MAX_COORD_M = 1000.0
+# Beyond 1000 km (a body in micrometres, at most ~2e6) the file is broken rather than a body
+# in other units, and products of such coordinates overflow.
+MAX_COORD_M = 1e6
 _SHOW = 5  # how many offending indices a message lists
 
 
@@ -82,7 +82,7 @@ def validate_body(body: Body) -> BodyReport:
     used[F.ravel()] = True
     far = np.flatnonzero(used & (np.abs(V).max(axis=1) > MAX_COORD_M))
     if far.size:
-        rep.errors.append(f"{where}: {far.size} vertices lie more than {MAX_COORD_M:g} m from the origin "
+        rep.errors.append(f"{where}: {far.size} vertices lie more than {MAX_COORD_M:g} m (1000 km) from the origin "
                           f"(vertex {_few(far)} at {V[far[0]].tolist()}); seamfit needs a body in metres")
         return rep
     P = V[used]

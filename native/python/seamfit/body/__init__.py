@@ -15,7 +15,7 @@ from .sdf import SignedDistanceField, build_sdf
 from .measure import MEASUREMENTS, body_measurements, cross_section_girth
 from .measurement_sets import MeasurementError, MeasurementSet, load_measurement_sets
 from .shape_model import hm08_landmarks
-from .from_measurements import MeasuredBody, from_measurements
+from .made_to_measure import MeasuredBody, from_measurements
 
 __all__ = ["Body", "BodyReport", "MEASUREMENTS", "MeasuredBody", "MeasurementError", "MeasurementSet",
            "SignedDistanceField", "body_measurements", "build_sdf", "check_body", "cross_section_girth",

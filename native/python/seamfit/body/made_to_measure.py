@@ -1,8 +1,8 @@
 """A body from a tape measure: the hm08 body model (shape_model.py) fitted to measurements.
 
 Unknowns: the macro weight and height, the cup size (women) and the local modifier of
-each measurement given (the neck's also scales its width and depth); the modifiers of
-measurements not given stay at the prior. Every requested measurement is a residual
+each measurement given (the neck's also scales its width and depth), as the weights of
+its -incr and -decr targets; the modifiers of measurements not given stay at the prior. Every requested measurement is a residual
 (measured - requested) / 0.1 cm, taken exactly as ``body_measurements`` takes it; a small
 Tikhonov term keeps the local modifiers and the cup size near a prior, and a smaller one
 the macros, so measurements that are not given follow the prior (the base sample body of
@@ -32,7 +32,7 @@ from .shape_model import LOCAL_MODIFIERS, ShapeParameters, hm08_faces, hm08_land
 __all__ = ["MeasuredBody", "from_measurements"]
 
 TOLERANCE_CM = 0.5          # the promise: every given measurement within this
-GOAL_CM = 0.05              # the fit stops once every given measurement is this close
+GOAL_CM = 0.1               # the fit stops once every given measurement is this close
 SIGMA_CM = 0.1              # residual scale
 LOCAL_PRIOR_WEIGHT = 0.3    # Tikhonov weight of a local modifier / the cup size (per unit)
 MACRO_PRIOR_WEIGHT = 0.002  # and of the macro weight and height
@@ -103,29 +103,37 @@ SERVES = {"neck": ("neck", "neck_horiz", "neck_depth")}
 
 
 class _Parameters:
-    """The fitted parameters as a vector, with their ranges and prior."""
+    """The fitted parameters as a vector, with their ranges and prior. A local modifier is
+    two parameters, the weights of its -incr and -decr targets (each in [0, 1]): the body
+    is linear in each, where a signed value would put a kink at 0."""
 
     def __init__(self, gender: str, keys):
         self.prior_shape = PRIORS[gender]
-        self.gender = gender
         free = [m for k in keys for m in SERVES.get(k, (k,)) if k != "height"]
+        self.locals = [m for m in LOCAL_MODIFIERS if m in free]
         self.names = ["weight", "height"] + (["cupsize"] if gender == "female" else []) + \
-            [m for m in LOCAL_MODIFIERS if m in free]
-        self.lo = np.array([0.0 if n in ("weight", "height", "cupsize") else -1.0 for n in self.names])
+            [f"{m}{side}" for m in self.locals for side in "+-"]
+        self.lo = np.zeros(len(self.names))
         self.hi = np.ones(len(self.names))
         self.prior = self.vector(self.prior_shape)
         self.weight = np.array([MACRO_PRIOR_WEIGHT if n in ("weight", "height") else LOCAL_PRIOR_WEIGHT
                                 for n in self.names])
 
     def vector(self, s: ShapeParameters) -> np.ndarray:
-        macro = {"weight": s.weight, "height": s.height, "cupsize": s.cupsize}
-        return np.array([macro[n] if n in macro else s.local.get(n, 0.0) for n in self.names])
+        values = {"weight": s.weight, "height": s.height, "cupsize": s.cupsize}
+        for m in self.locals:
+            v = s.local.get(m, 0.0)
+            values[m + "+"], values[m + "-"] = max(v, 0.0), max(-v, 0.0)
+        return np.array([values[n] for n in self.names])
 
     def shape(self, x: np.ndarray) -> ShapeParameters:
         d = dict(zip(self.names, map(float, x)))
+        local = {k: self.prior_shape.local.get(k, 0.0) for k in LOCAL_MODIFIERS}
+        for m in self.locals:
+            up, down = d[m + "+"], d[m + "-"]
+            local[m] = up - down if min(up, down) < 1e-9 else (up, down)
         return ShapeParameters(gender=self.prior_shape.gender, weight=d["weight"], height=d["height"],
-                               cupsize=d.get("cupsize", self.prior_shape.cupsize),
-                               local={k: d.get(k, self.prior_shape.local.get(k, 0.0)) for k in LOCAL_MODIFIERS})
+                               cupsize=d.get("cupsize", self.prior_shape.cupsize), local=local)
 
 
 def from_measurements(measurements, gender: str | None = None, name: str | None = None) -> MeasuredBody:
@@ -157,9 +165,10 @@ def from_measurements(measurements, gender: str | None = None, name: str | None 
     body, m = measure(x)
     f = objective(m, x)
     steps = 0
-    for steps in range(1, MAX_STEPS + 1):
-        if not keys or max(abs(m[k] - v) for k, v in zip(keys, target)) < GOAL_CM:
+    while steps < MAX_STEPS:
+        if max((abs(m[k] - v) for k, v in zip(keys, target)), default=0.0) < GOAL_CM:
             break
+        steps += 1
         dx = _gauss_newton_step(p, x, m, keys, target)
         for _ in range(6):                       # halve a step that does not help
             x_new = np.clip(x + dx, p.lo, p.hi)
@@ -170,8 +179,9 @@ def from_measurements(measurements, gender: str | None = None, name: str | None 
             dx *= 0.5
         else:
             break
+        stalled = f - f_new < 1e-4 * f           # out of range: the rest would not help
         x, body, m, f = x_new, body_new, m_new, f_new
-        if np.max(np.abs(dx)) < 1e-5:
+        if stalled:
             break
     achieved = {k: float(m[k]) for k in MEASUREMENTS}
     result = MeasuredBody(body=body, gender=gender, requested=requested, achieved=achieved,
@@ -210,9 +220,7 @@ def _gauss_newton_step(p: _Parameters, x, m: dict, keys: list, target) -> np.nda
     base = _tape_lengths(tapes, keys, V0)
     J = np.empty((len(keys), len(x)))
     for i in range(len(x)):
-        # Probe towards the inside of the range; a local modifier probes the side its
-        # sign uses (its -incr and -decr targets differ).
-        h = STEP if x[i] + STEP <= p.hi[i] and (x[i] >= 0 or x[i] - STEP < p.lo[i]) else -STEP
+        h = STEP if x[i] + STEP <= p.hi[i] else -STEP          # probe inside the range
         xi = x.copy()
         xi[i] += h
         J[:, i] = (_tape_lengths(tapes, keys, shape_vertices(p.shape(xi), place=False)) - base) / h
@@ -224,17 +232,21 @@ def _gauss_newton_step(p: _Parameters, x, m: dict, keys: list, target) -> np.nda
 
 def _problems(p: _Parameters, x, result: MeasuredBody) -> list:
     """Why each measurement missed by more than the tolerance is missed."""
+    limits = []
+    for n, v in zip(p.names, x):
+        if n[-1] in "+-":                        # a local modifier's target weight: at 1 is its end
+            if v >= 1 - 1e-3:
+                limits.append(f"the {n[:-1]} modifier at {n[-1]}1")
+        elif v <= 1e-3 or v >= 1 - 1e-3:
+            limits.append(f"macro {n} at {'1' if v > 0.5 else '0'}")
     out = []
-    at_limit = [n for n, v, lo, hi in zip(p.names, x, p.lo, p.hi) if v <= lo + 1e-3 or v >= hi - 1e-3]
     for key, err in result.errors.items():
         if abs(err) <= TOLERANCE_CM:
             continue
         line = (f"{key}: requested {result.requested[key]:.1f} cm, achieved {result.achieved[key]:.1f} cm "
                 f"({err:+.1f})")
-        if at_limit:
-            line += (": out of the model's range (" + ", ".join(
-                f"{n} at its {'upper' if x[p.names.index(n)] > 0.5 * (p.lo[i] + p.hi[i]) else 'lower'} limit"
-                for i, n in ((p.names.index(n), n) for n in at_limit)) + ")")
+        if limits:
+            line += f": out of the model's range ({', '.join(limits)})"
         else:
             line += ": inconsistent with the other measurements (the model cannot meet them together)"
         out.append(line)

@@ -9,8 +9,9 @@ A shape is a few numbers (:class:`ShapeParameters`):
   anchor factors (min = max(0, 1 - 2p), max = max(0, 2p - 1), average = the rest) and the
   target named by a combination of anchors is added with the product of their factors;
 * local modifiers, one per measurement (the measure-* targets; inseam is
-  measure-upperleg-height), plus neck-scale-horiz and -depth, each in [-1, 1]: v > 0 adds the ``-incr`` target with weight v, v < 0
-  the ``-decr`` target with weight -v.
+  measure-upperleg-height), plus neck-scale-horiz and -depth, each in [-1, 1]: v > 0
+  adds the ``-incr`` target with weight v, v < 0 the ``-decr`` target with weight -v (or a
+  pair (incr, decr) of weights in [0, 1], as a fit may use both).
 
 The body is returned in seamfit's frame: metres, Z up, facing -Y, soles on z = 0, its
 bounding box centred on x = y = 0.
@@ -45,7 +46,9 @@ class ShapeParameters:
 
     def as_dict(self) -> dict:
         return {"gender": self.gender, "weight": self.weight, "height": self.height,
-                "cupsize": self.cupsize, "local": {k: float(v) for k, v in self.local.items()}}
+                "cupsize": self.cupsize,
+                "local": {k: ([float(x) for x in v] if isinstance(v, (tuple, list, np.ndarray)) else float(v))
+                          for k, v in self.local.items()}}
 
 
 class _Model:
@@ -100,11 +103,22 @@ def shape_vertices(shape: ShapeParameters, place: bool = True) -> np.ndarray:
     for key, v in shape.local.items():
         if key not in LOCAL_MODIFIERS:
             raise KeyError(f"unknown local modifier {key!r}")
-        m.add(V, f"local-{key}-{'incr' if v > 0 else 'decr'}", abs(float(v)))
+        incr, decr = _split(v)
+        m.add(V, f"local-{key}-incr", incr)
+        m.add(V, f"local-{key}-decr", decr)
     if place:
         lo, hi = V.min(axis=0), V.max(axis=0)
         V -= [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), lo[2]]
     return V
+
+
+def _split(v) -> tuple[float, float]:
+    """A modifier's (incr, decr) weights: from a signed value, or given as a pair (a fit
+    may use both targets; the body is linear in each)."""
+    if isinstance(v, (tuple, list, np.ndarray)):
+        return float(v[0]), float(v[1])
+    v = float(v)
+    return max(v, 0.0), max(-v, 0.0)
 
 
 def hm08_faces() -> np.ndarray:

@@ -451,3 +451,12 @@ def test_another_topology_is_refused_before_the_base_drape(tmp_path, capsys, mon
     assert_refused(code, err, secs, "grade", other, B0, "does not share the base body's mesh topology",
                    "the faces differ")
     assert not (tmp_path / "cache").exists()
+
+
+def test_a_nul_in_a_name_still_draws_a_well_formed_svg(tmp_path, capsys):
+    import xml.etree.ElementTree as ET
+    pattern = _edit(_nul_name, "nul_name.json")(tmp_path)
+    code, out, err, _ = run(capsys, "validate", pattern, "--svg", tmp_path / "p.svg")
+    assert code == 1 and "printable characters" in err
+    root = ET.parse(tmp_path / "p.svg").getroot()           # once: not well-formed (a raw NUL)
+    assert any(e.get("data-panel") == "skirt\ufffdback" for e in root.iter())

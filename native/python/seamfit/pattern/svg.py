@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from pathlib import Path
@@ -131,8 +132,17 @@ def _layout(slots: list[_Slot], top: float) -> tuple[float, float]:
     return sheet_w, y + row_h + MARGIN_CM
 
 
+# Characters XML 1.0 cannot hold even escaped (a NUL in a panel name, say): drawn as U+FFFD,
+# so that the drawing of any pattern is a well-formed SVG.
+_NOT_XML = re.compile("[^\x09\x0a\x0d\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def _xml(v) -> str:
+    return _NOT_XML.sub("\ufffd", str(v))
+
+
 def _el(parent, tag: str, **attrs) -> ET.Element:
-    return ET.SubElement(parent, tag, {k.rstrip("_").replace("_", "-"): str(v)
+    return ET.SubElement(parent, tag, {k.rstrip("_").replace("_", "-"): _xml(v)
                                        for k, v in attrs.items()})
 
 
@@ -141,7 +151,7 @@ def _text(parent, x: float, y: float, text: str, size: float, color: str, cls: s
     t = _el(parent, "text", x=_f(x), y=_f(y), font_size=_f(size), fill=color, stroke="none",
             text_anchor=anchor, dominant_baseline="central", font_family="sans-serif",
             class_=cls, **attrs)
-    t.text = text
+    t.text = _xml(text)
     return t
 
 

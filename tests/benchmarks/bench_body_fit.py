@@ -44,46 +44,43 @@ def fit(requested: dict, gender: str, name: str) -> dict:
 
 
 def draw_size_run(bodies: list, labels: list, path: Path) -> None:
+    """Front and side views of every body, side by side, shaded by a light from the
+    front-left (painter's order: far triangles first)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
 
-    fig, axes = plt.subplots(1, 2, figsize=(12, 6.5), gridspec_kw={"width_ratios": [3, 2]})
-    light = np.array([0.3, -0.8, 0.5]) / np.linalg.norm([0.3, -0.8, 0.5])
+    fig, axes = plt.subplots(2, 1, figsize=(13, 9.5))
+    light = np.array([0.4, -0.7, 0.6]) / np.linalg.norm([0.4, -0.7, 0.6])
     cmap = plt.get_cmap("viridis")
-    for k, (made, label) in enumerate(zip(bodies, labels)):
-        V, F = made.body.vertices, made.body.faces
-        colour = np.array(cmap(k / max(1, len(bodies) - 1)))[:3]
-        for ax, (u, w, sign, offset) in zip(axes, ((0, 2, 1.0, 0.55 * k), (1, 2, -1.0, 0.0))):
-            T = V[F]
+    # (axis across the picture, towards the viewer, spacing): the front from -Y, the left
+    # side from +X (the body faces left there)
+    views = ((0, np.array([0.0, -1.0, 0.0]), 0.78), (1, np.array([1.0, 0.0, 0.0]), 0.42))
+    for ax, (u, towards, spacing) in zip(axes, views):
+        for k, (made, label) in enumerate(zip(bodies, labels)):
+            T = made.body.vertices[made.body.faces]
             n = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
             n /= np.linalg.norm(n, axis=1, keepdims=True) + 1e-30
-            view = np.zeros(3)
-            view[1 if u == 0 else 0] = -1.0                      # front: from -Y; side: from +X
-            if u == 1:
-                view[0] = 1.0
-            front = n @ view > 0
-            order = np.argsort((T[front] @ -view).mean(axis=1))[::-1]   # far to near
-            poly = np.stack([sign * T[front][order][:, :, u] + offset, T[front][order][:, :, w]], axis=-1)
-            shade = 0.35 + 0.65 * np.clip(n[front][order] @ light, 0, 1)
+            keep = n @ towards > 0
+            T, n = T[keep], n[keep]
+            order = np.argsort((T @ towards).max(axis=1))
+            T, n = T[order], n[order]
+            across = T[:, :, u] + spacing * k
+            colour = np.array(cmap(k / max(1, len(bodies) - 1)))[:3]
+            shade = (0.45 + 0.55 * np.clip(n @ light, 0, 1))[:, None]
+            ax.add_collection(PolyCollection(np.stack([across, T[:, :, 2]], axis=-1),
+                                             facecolors=shade * (0.35 + 0.65 * colour), edgecolors="none",
+                                             antialiased=False))
             if u == 0:
-                ax.add_collection(PolyCollection(poly, facecolors=shade[:, None] * colour, edgecolors="none"))
-                ax.text(offset, -0.06, label, ha="center", fontsize=9)
-            else:                                               # side: outlines overlaid
-                ax.add_collection(PolyCollection(poly, facecolors=list(colour) + [0.06], edgecolors="none"))
-    axes[0].set_title("front (size run, left to right)")
-    axes[1].set_title("side (overlaid)")
-    for ax in axes:
+                ax.text(spacing * k, -0.07, label, ha="center", fontsize=10)
+        ax.set_xlim(-0.45, spacing * (len(bodies) - 1) + 0.45)
+        ax.set_ylim(-0.12, 1.72)
         ax.set_aspect("equal")
-        ax.autoscale_view()
         ax.axis("off")
-    axes[0].set_xlim(-0.45, 0.55 * (len(bodies) - 1) + 0.45)
-    axes[1].set_xlim(-0.25, 0.25)
-    for ax in axes:
-        ax.set_ylim(-0.1, 1.75)
+    axes[0].set_title("US misses sizes 2-16 made from the size chart (front, then side)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
 
 

@@ -114,3 +114,14 @@ def test_installed_drape_and_grade_write_results(installed, tmp_path):
     assert report["outer_iterations"] <= 2
     assert all(s["written"] for s in report["pictures"].values()), report["pictures"]
     assert "not drawn" not in p.stderr and "Traceback" not in p.stderr, p.stderr[-3000:]
+
+
+def test_installed_body_from_measurements(installed, tmp_path):
+    """The body model's packed data is in the wheel: a body is made with nothing downloaded."""
+    venv, _, env = installed
+    (tmp_path / "tape.json").write_text(json.dumps({"units": "cm", "measurements": {"height": 170, "hip": 100}}))
+    _run([venv / "bin" / "seamfit", "body", "--measurements", tmp_path / "tape.json", "--out", tmp_path / "me.obj",
+          "-q"], timeout=300, env=env, cwd=tmp_path)
+    (body,) = json.loads((tmp_path / "me.json").read_text())["bodies"]
+    assert body["met"] and body["set"] == ["height", "hip"], body
+    assert (tmp_path / "me.obj").stat().st_size > 500_000

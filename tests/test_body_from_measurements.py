@@ -190,13 +190,15 @@ def test_bad_measurements_are_clear_errors(tmp_path, capsys, doc, message):
 
 
 def test_cli_single_body_and_force(tmp_path, capsys):
-    path = tmp_path / "tape.json"
+    path = tmp_path / "me.json"
     path.write_text(json.dumps({"units": "mm", "gender": "female", "measurements": {"height": 1680, "waist": 720}}))
-    assert main(["body", "--measurements", str(path), "--out", str(tmp_path / "tape.obj")]) == 2
-    assert "would replace the input" in capsys.readouterr().err     # tape.json would be the report
+    clash = tmp_path / "x.report.json"                                # x.obj's report would replace it
+    clash.write_text(path.read_text())
+    assert main(["body", "--measurements", str(clash), "--out", str(tmp_path / "x.obj")]) == 2
+    assert "would replace the input" in capsys.readouterr().err
     out = tmp_path / "me.obj"
     assert main(["body", "--measurements", str(path), "--out", str(out)]) == 0
-    report = json.loads(out.with_suffix(".json").read_text())
+    report = json.loads((tmp_path / "me.report.json").read_text())
     (r,) = report["bodies"]
     assert r["set"] == ["height", "waist"] and r["requested_cm"] == {"height": 168.0, "waist": 72.0}
     assert "2 measurements set, 10 inferred" in capsys.readouterr().out

@@ -122,6 +122,6 @@ def test_installed_body_from_measurements(installed, tmp_path):
     (tmp_path / "tape.json").write_text(json.dumps({"units": "cm", "measurements": {"height": 170, "hip": 100}}))
     _run([venv / "bin" / "seamfit", "body", "--measurements", tmp_path / "tape.json", "--out", tmp_path / "me.obj",
           "-q"], timeout=300, env=env, cwd=tmp_path)
-    (body,) = json.loads((tmp_path / "me.json").read_text())["bodies"]
+    (body,) = json.loads((tmp_path / "me.report.json").read_text())["bodies"]
     assert body["met"] and body["set"] == ["height", "hip"], body
     assert (tmp_path / "me.obj").stat().st_size > 500_000

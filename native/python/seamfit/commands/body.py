@@ -2,7 +2,7 @@
 
 FILE holds one body or several (seamfit JSON, a Seamly2D / Valentina individual .vit or a
 multi-size .vst, one body per size). With --out BODY.obj (or .ply) the one body is
-written there with its report beside it (BODY.json); with --out DIR every body is
+written there with its report beside it (BODY.report.json); with --out DIR every body is
 written as DIR/<name>.obj with DIR/report.json. The report lists, per body, which
 measurements were set and which inferred, requested against achieved values, and why
 any value is missed by more than 0.5 cm.
@@ -59,7 +59,7 @@ def run(args) -> int:
                            f"({', '.join(s.name for s in sets)}); give --out a folder")
     if single:
         names = [out.name]
-        report_name = out.with_suffix(".json").name
+        report_name = out.stem + ".report.json"   # not BODY.json: often the measurements' own name
         output = OutputSet(out.parent, inputs=[args.measurements], force=args.force,
                            files=[out.name, report_name])
     else:
@@ -83,7 +83,7 @@ def run(args) -> int:
         atomic_write_text(tmp / report_name, json.dumps(report, indent=1) + "\n")
     if not args.quiet:
         print(f"wrote {len(reports)} bod{'y' if len(reports) == 1 else 'ies'} and "
-              f"{out.with_suffix('.json') if single else out / report_name}")
+              f"{out.parent / report_name if single else out / report_name}")
     return 0
 
 

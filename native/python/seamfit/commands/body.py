@@ -33,7 +33,8 @@ BODY_SUFFIXES = (".obj", ".ply")
 def register(subparsers) -> None:
     p = subparsers.add_parser(
         "body", help="make bodies from measurements (OBJ/PLY + report)",
-        description=__doc__.split("\n\n")[0].split(": ", 1)[1],
+        description="Make bodies of the sample bodies' mesh from measurements, and report how "
+                    "well each meets them.",
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--measurements", metavar="FILE", type=Path, required=True,
                    help="seamfit .json, Seamly2D/Valentina .vit (one body) or .vst (one body per size)")
@@ -41,7 +42,7 @@ def register(subparsers) -> None:
                    help="BODY.obj / BODY.ply for one body (report beside it), or a folder")
     p.add_argument("--gender", choices=("female", "male"), default=None,
                    help="the body model's gender (default: the file's, else female)")
-    add_force_argument(p, "the output when it already exists")
+    add_force_argument(p, "the body and its report, or the --out folder,")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=run)
 

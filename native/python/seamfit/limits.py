@@ -35,10 +35,12 @@ class Limit:
             raise SeamfitError(f"{self.env}={raw!r}: must be >= 0 (0 for no limit)")
         return v
 
-    def check(self, amount: float, where: str, what: str | None = None) -> None:
+    def check(self, amount: float, where: str, what: str | None = None, error=LimitError) -> None:
+        """Raise ``error`` (the reader's own class, so callers catching PatternError or
+        BodyError catch this too) when ``amount`` exceeds the limit."""
         limit = self.value()
         if limit and amount > limit:
-            raise LimitError(f"{where}: {what or f'{amount:,.0f} {self.unit}'}, more than the limit of "
+            raise error(f"{where}: {what or f'{amount:,.0f} {self.unit}'}, more than the limit of "
                              f"{limit:,} {self.unit} (set {self.env} to raise it, 0 for no limit)")
 
 
@@ -70,7 +72,7 @@ def check_input_file(path, kind: str, error=SeamfitError) -> int:
                 "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode) else
                 "a socket" if stat.S_ISSOCK(st.st_mode) else "not a regular file")
         raise error(f"{path}: is {what}, not a regular file; give the {kind} as a file")
-    FILE_MB.check(st.st_size / 2**20, str(path), f"{st.st_size / 2**20:,.1f} MB")
+    FILE_MB.check(st.st_size / 2**20, str(path), f"{st.st_size / 2**20:,.1f} MB", error)
     return st.st_size
 
 

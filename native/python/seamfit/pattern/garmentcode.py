@@ -230,7 +230,8 @@ def _panel(name: str, d: Any, scale: float, absolute: bool, where: str,
         raise PatternError(f"{where}: an edge has no finite length")
     OUTLINE_VERTICES.check(samples_so_far + expect, where,
                            f"its edges sampled every {SAMPLE_SPACING_CM:g} cm make {expect:,} outline vertices"
-                           + (f" ({samples_so_far + expect:,} with the panels before it)" if samples_so_far else ""))
+                           + (f" ({samples_so_far + expect:,} with the panels before it)" if samples_so_far else ""),
+                           PatternError)
     pieces, nodes = [], []
     start = 0
     for edge in edges:
@@ -298,7 +299,7 @@ def pattern_from_garmentcode(d: Any, source: str = "<garmentcode>", *,
     from ..limits import PANELS
     spec = d["pattern"]
     raw_panels = spec["panels"]
-    PANELS.check(len(raw_panels), source)
+    PANELS.check(len(raw_panels), source, error=PatternError)
     panel_order = spec.get("panel_order", [])
     if not isinstance(panel_order, list):
         raise PatternError(f"{source}: pattern.panel_order must be a list of panel names")

@@ -166,9 +166,10 @@ def pattern_from_dict(d: dict, source: str = "<dict>") -> Pattern:
     if d.get("format") != FORMAT:
         raise PatternError(f"{source}: not a {FORMAT} pattern (format = {d.get('format')!r})")
     raw_panels = _list(_need(d, "panels", source), source, "panels")
-    PANELS.check(len(raw_panels), source)
+    PANELS.check(len(raw_panels), source, error=PatternError)
     OUTLINE_VERTICES.check(sum(len(p["outline_cm"]) for p in raw_panels
-                               if isinstance(p, dict) and isinstance(p.get("outline_cm"), list)), source)
+                               if isinstance(p, dict) and isinstance(p.get("outline_cm"), list)), source,
+                           error=PatternError)
     panels = [_panel_from(p, f"{source}: panel {k}") for k, p in enumerate(raw_panels)]
     stitches = []
     for k, s in enumerate(_list(d.get("stitches", []), source, "stitches")):

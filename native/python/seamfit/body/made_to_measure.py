@@ -2,18 +2,21 @@
 
 Unknowns: the macro weight and height, the cup size (women) and the local modifier of
 each measurement given (the neck's also scales its width and depth), as the weights of
-its -incr and -decr targets; the modifiers of measurements not given stay at the prior. Every requested measurement is a residual
-(measured - requested) / 0.1 cm, taken exactly as ``body_measurements`` takes it; a small
-Tikhonov term keeps the local modifiers and the cup size near a prior, and a smaller one
-the macros, so measurements that are not given follow the prior (the base sample body of
-that gender). Bounded Gauss-Newton: each step linearises the measurements through their
-tapes (measured once per step, re-taken on every probed shape in well under a
-millisecond), solves the bounded linear least-squares problem, and measures the new body
-afresh; a step that does not lower the objective is halved.
+its -incr and -decr targets; the modifiers of measurements not given stay at the prior.
+Every requested measurement is a residual (measured - requested) / 0.1 cm, taken exactly
+as ``body_measurements`` takes it; a small Tikhonov term keeps the local modifiers and the
+cup size near a prior, and a smaller one the macros, so measurements that are not given
+follow the prior (the base sample body of that gender). Bounded Gauss-Newton: each step
+linearises the measurements through their tapes (measured once per step, re-taken on
+every probed shape in well under a millisecond), solves the bounded linear least-squares
+problem, and measures the new body afresh; a step that does not lower the objective is
+halved.
 
 A measurement that cannot be met within 0.5 cm is reported with the reason: a model
 parameter at the end of its range (the value lies beyond the bodies the model can make),
-or, with every parameter inside its range, the measurements contradict each other.
+or, with every parameter inside its range, the measurements contradict each other. A
+value whose own modifier ends at its limit is then weighted 30 times less and the fit
+goes on, so that it does not pull the others (the height, say) off.
 """
 from __future__ import annotations
 
@@ -34,6 +37,7 @@ __all__ = ["MeasuredBody", "from_measurements"]
 TOLERANCE_CM = 0.5          # the promise: every given measurement within this
 GOAL_CM = 0.1               # the fit stops once every given measurement is this close
 SIGMA_CM = 0.1              # residual scale
+SOFT_SIGMA_CM = 3.0         # residual scale of a value the model cannot reach
 LOCAL_PRIOR_WEIGHT = 0.3    # Tikhonov weight of a local modifier / the cup size (per unit)
 MACRO_PRIOR_WEIGHT = 0.002  # and of the macro weight and height
 MAX_STEPS = 12
@@ -119,6 +123,15 @@ class _Parameters:
         self.weight = np.array([MACRO_PRIOR_WEIGHT if n in ("weight", "height") else LOCAL_PRIOR_WEIGHT
                                 for n in self.names])
 
+    def at_limit(self, key: str, x) -> bool:
+        """Whether the measurement's own modifier (the macro height for the height) is at
+        the end of its range."""
+        if key == "height":
+            v = x[self.names.index("height")]
+            return v <= 1e-3 or v >= 1 - 1e-3
+        return any(x[self.names.index(m + side)] >= 1 - 1e-3 for m in SERVES.get(key, (key,))
+                   for side in "+-" if m + side in self.names)
+
     def vector(self, s: ShapeParameters) -> np.ndarray:
         values = {"weight": s.weight, "height": s.height, "cupsize": s.cupsize}
         for m in self.locals:
@@ -157,32 +170,46 @@ def from_measurements(measurements, gender: str | None = None, name: str | None 
         body = Body(shape_vertices(p.shape(x)), faces, name=name or mset.name)
         return body, body_measurements(body, lm, tapes=True)
 
-    def objective(m, x):
-        r = (np.array([m[k] for k in keys]) - target) / SIGMA_CM
+    def objective(m, x, sigma):
+        r = (np.array([m[k] for k in keys]) - target) / sigma
         return float(r @ r + np.sum((p.weight * (x - p.prior)) ** 2))
+
+    def solve(x, body, m, sigma, max_steps):
+        """Bounded Gauss-Newton from x; returns the last accepted x, its body, measurements
+        and the number of steps."""
+        f = objective(m, x, sigma)
+        steps = 0
+        while steps < max_steps:
+            if max((abs(m[k] - v) for k, v in zip(keys, target)), default=0.0) < GOAL_CM:
+                break
+            steps += 1
+            dx = _gauss_newton_step(p, x, m, keys, target, sigma)
+            for _ in range(6):                       # halve a step that does not help
+                x_new = np.clip(x + dx, p.lo, p.hi)
+                body_new, m_new = measure(x_new)
+                f_new = objective(m_new, x_new, sigma)
+                if f_new < f:
+                    break
+                dx *= 0.5
+            else:
+                break
+            stalled = f - f_new < 1e-4 * f           # out of range: the rest would not help
+            x, body, m, f = x_new, body_new, m_new, f_new
+            if stalled:
+                break
+        return x, body, m, steps
 
     x = p.prior.copy()
     body, m = measure(x)
-    f = objective(m, x)
-    steps = 0
-    while steps < MAX_STEPS:
-        if max((abs(m[k] - v) for k, v in zip(keys, target)), default=0.0) < GOAL_CM:
-            break
-        steps += 1
-        dx = _gauss_newton_step(p, x, m, keys, target)
-        for _ in range(6):                       # halve a step that does not help
-            x_new = np.clip(x + dx, p.lo, p.hi)
-            body_new, m_new = measure(x_new)
-            f_new = objective(m_new, x_new)
-            if f_new < f:
-                break
-            dx *= 0.5
-        else:
-            break
-        stalled = f - f_new < 1e-4 * f           # out of range: the rest would not help
-        x, body, m, f = x_new, body_new, m_new, f_new
-        if stalled:
-            break
+    sigma = np.full(len(keys), SIGMA_CM)
+    x, body, m, steps = solve(x, body, m, sigma, MAX_STEPS)
+    missed = np.array([abs(m[k] - v) > TOLERANCE_CM and p.at_limit(k, x) for k, v in zip(keys, target)])
+    if missed.any() and not missed.all():
+        # Values out of the model's reach would pull the others off (a girth beyond the
+        # range taking the height with it): they become soft, the rest are met.
+        sigma[missed] = SOFT_SIGMA_CM
+        x, body, m, more = solve(x, body, m, sigma, MAX_STEPS // 2)
+        steps += more
     achieved = {k: float(m[k]) for k in MEASUREMENTS}
     result = MeasuredBody(body=body, gender=gender, requested=requested, achieved=achieved,
                           shape=p.shape(x), seconds=time.perf_counter() - t0, steps=steps)
@@ -213,7 +240,7 @@ def _tape_lengths(tapes: dict, keys: list, V: np.ndarray) -> np.ndarray:
     return np.array([tapes[k].length(V) for k in keys])
 
 
-def _gauss_newton_step(p: _Parameters, x, m: dict, keys: list, target) -> np.ndarray:
+def _gauss_newton_step(p: _Parameters, x, m: dict, keys: list, target, sigma) -> np.ndarray:
     """The bounded Gauss-Newton step: measurements linearised through their tapes."""
     tapes = m["tapes"]
     V0 = shape_vertices(p.shape(x), place=False)
@@ -224,8 +251,8 @@ def _gauss_newton_step(p: _Parameters, x, m: dict, keys: list, target) -> np.nda
         xi = x.copy()
         xi[i] += h
         J[:, i] = (_tape_lengths(tapes, keys, shape_vertices(p.shape(xi), place=False)) - base) / h
-    r = (np.array([m[k] for k in keys]) - target) / SIGMA_CM
-    A = np.vstack([J / SIGMA_CM, np.diag(p.weight)])
+    r = (np.array([m[k] for k in keys]) - target) / sigma
+    A = np.vstack([J / sigma[:, None], np.diag(p.weight)])
     b = np.concatenate([-r, -p.weight * (x - p.prior)])
     return lsq_linear(A, b, bounds=(p.lo - x, p.hi - x), method="bvls").x
 

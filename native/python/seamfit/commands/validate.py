@@ -18,7 +18,8 @@ patterns (.json): sewpat-1 files and GarmentCode *_specification.json files; the
   degenerate edges (start == end), node/corner/landmark indices inside the outline,
   placement finite and a rotation, stitch sides on existing panels with ranges in bounds,
   non-gathered stitch sides of equal length within max(--seam-tolerance, --seam-tolerance-rel
-  x longer side), and plausible units (cm, not mm or m). See docs/formats.md.
+  x longer side), plausible units (cm, not mm or m), names of printable characters and
+  coordinates within 1 km. See docs/formats.md.
 bodies (.obj, .ply): loaded and checked by seamfit.body.
 
 exit status: 0 valid (warnings allowed unless --strict), 1 validation errors found

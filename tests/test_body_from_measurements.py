@@ -91,6 +91,11 @@ def test_out_of_the_models_range_is_reported():
     made = from_measurements({"height": 150.0, "bust": 165.0, "waist": 60.0})
     assert not made.met
     assert any("bust" in p and "out of the model's range" in p for p in made.problems), made.problems
+    # a waist beyond the male model's range: reported, and the values it can meet are met
+    made = from_measurements({"height": 185, "bust": 118, "waist": 108, "hip": 114, "shoulder": 44}, gender="male")
+    assert [p.split(":")[0] for p in made.problems] == ["waist"], made.problems
+    assert "the waist modifier at +1" in made.problems[0]
+    assert all(abs(e) <= 0.5 for k, e in made.errors.items() if k != "waist"), made.errors
 
 
 VIT = """<?xml version="1.0" encoding="UTF-8"?>

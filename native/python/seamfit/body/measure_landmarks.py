@@ -34,6 +34,10 @@ def landmark_measurements(s, body: Body, lm: dict, out: dict, tapes: dict | None
     from .measure import horizontal_girth_tape, landmark_z, _extremum
 
     V, n = body.vertices, body.n_vertices
+    largest = max(max(np.atleast_1d(v)) for v in lm.values())
+    if largest >= n:
+        raise BodyError(f"{body.where}: landmark vertex {largest} is out of range ({n} vertices); "
+                        "these landmarks are for another mesh")
     lv = out["levels_z_m"]
     found: dict = {}
     if "underbust_ring" in lm:

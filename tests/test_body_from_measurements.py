@@ -215,3 +215,24 @@ def test_cli_single_body_and_force(tmp_path, capsys):
                                                             "b": {"measurements": {"waist": 80}}}}))
     assert main(["body", "--measurements", str(several), "--out", str(tmp_path / "x.obj")]) == 2
     assert "holds 2 bodies (a, b); give --out a folder" in capsys.readouterr().err
+
+
+def test_vst_sizes_from_min_max_step_in_mm(tmp_path):
+    path = tmp_path / "chart.smms"
+    path.write_text("""<?xml version="1.0" encoding="UTF-8"?>
+<smms><version>0.4.6</version><read-only>false</read-only><unit>mm</unit><pm_system>998</pm_system>
+<size base="400" min="380" max="420" step="20"/><height base="1640" min="1640" max="1640" step="60"/>
+<body-measurements><m name="waist_circ" base="700" height_increase="0" size_increase="40"/></body-measurements>
+</smms>""")
+    sets = load_measurement_sets(path)
+    assert [s.name for s in sets] == ["size380", "size400", "size420"]
+    assert [s.cm["waist"] for s in sets] == pytest.approx([66.0, 70.0, 74.0])
+
+
+def test_ply_output(tmp_path):
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps({"units": "in", "measurements": {"hip": 40}}))
+    assert main(["body", "--measurements", str(path), "--out", str(tmp_path / "b.ply"), "-q"]) == 0
+    body = load_body(tmp_path / "b.ply")
+    assert body_measurements(body, hm08_landmarks())["hip"] == pytest.approx(101.6, abs=0.5)
+    assert json.loads((tmp_path / "b.report.json").read_text())["bodies"][0]["requested_cm"] == {"hip": 101.6}

@@ -236,3 +236,14 @@ def test_ply_output(tmp_path):
     body = load_body(tmp_path / "b.ply")
     assert body_measurements(body, hm08_landmarks())["hip"] == pytest.approx(101.6, abs=0.5)
     assert json.loads((tmp_path / "b.report.json").read_text())["bodies"][0]["requested_cm"] == {"hip": 101.6}
+
+
+def test_sample_measurement_files():
+    folder = BODIES.parent / "measurements"
+    (me,) = load_measurement_sets(folder / "me.json")
+    assert me.name == "me" and me.cm["inseam"] == 78
+    (ann,) = load_measurement_sets(folder / "ann.vit")
+    assert ann.name == "Ann" and ann.cm["height"] == pytest.approx(66 * 2.54)
+    chart = load_measurement_sets(folder / "size_chart.vst")
+    assert [s.name for s in chart] == ["size38", "size40", "size42"]
+    assert [s.cm["hip"] for s in chart] == pytest.approx([92, 96, 100])

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from seamfit import cli
@@ -197,6 +197,9 @@ def ply_files(draw):
 
 @FUZZ
 @given(ply_files())
+# found by this test: an empty face element once failed in the fan triangulation
+@example(b"ply\nformat ascii 1.0\nelement vertex 0\nproperty char x\nproperty char y\nproperty char z\n"
+         b"element face 0\nproperty list uchar int vertex_indices\nend_header\n\n")
 def test_ply_reader_only_raises_body_errors(data):
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "b.ply"

@@ -243,6 +243,8 @@ def _obj_faces(rows, lines, nv_before, n_vertices, where):
 
 def _fan(idx: np.ndarray, counts: np.ndarray) -> np.ndarray:
     """Fan-triangulate polygons given as flat vertex indices and per-polygon counts."""
+    if len(counts) == 0:                          # an empty face element
+        return np.zeros((0, 3), dtype=np.int32)
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
     out = []
     order = []

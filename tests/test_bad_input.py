@@ -423,6 +423,11 @@ def test_truth_is_read_before_the_grading(tmp_path, capsys, monkeypatch):
                              "--out", tmp_path / "out", *QUICK)
     assert_refused(code, err, secs, "grade", truth, "panels must be a list")
     assert not (tmp_path / "cache").exists()                # no SDF, no base drape
+    other = sorted((SAMPLES / "patterns/fs_bodice").glob("*/pattern.json"))[0]   # no panel in common
+    code, _, err, secs = run(capsys, "grade", PENCIL, "--base-body", B0, "--target-body", B1, "--truth", other,
+                             "--out", tmp_path / "out", *QUICK)
+    assert_refused(code, err, secs, "grade", other, "no panel name in common")
+    assert not (tmp_path / "cache").exists()
 
 
 def test_a_target_body_with_inverted_normals_is_graded(tmp_path, capsys, monkeypatch):

@@ -137,7 +137,12 @@ def run(args) -> int:
             print(f"seamfit grade: warning: {message}", file=sys.stderr)
 
     base_pattern = checked_pattern(args.pattern, args.edge_length, warn)
-    truth = load_pattern(args.truth) if args.truth is not None else None
+    truth = None
+    if args.truth is not None:
+        from ..pattern.compare import baseline_errors
+        truth_pattern = load_pattern(args.truth)
+        # scored against the base now: a truth with no panel in common fails here, not after the search
+        truth = (truth_pattern, baseline_errors(base_pattern, truth_pattern).to_dict())
     base_body = checked_body(args.base_body, warn)
     target_body = checked_body(args.target_body, warn)
     _check_same_topology(base_body, target_body)
@@ -224,10 +229,11 @@ def _grade(args, settings, progress, base_pattern, base_body, target_body, truth
     report["inputs"] = {"pattern": str(args.pattern), "base_body": str(args.base_body),
                         "target_body": str(args.target_body)}
     if truth is not None:
-        from ..pattern.compare import baseline_errors, landmark_errors
+        from ..pattern.compare import landmark_errors
+        truth_pattern, base_unchanged = truth
         report["accuracy"] = {"truth": str(args.truth),
-                              "graded": landmark_errors(result.pattern, truth).to_dict(),
-                              "base_unchanged": baseline_errors(base_pattern, truth).to_dict()}
+                              "graded": landmark_errors(result.pattern, truth_pattern).to_dict(),
+                              "base_unchanged": base_unchanged}
 
     result.pattern.body_id = target_body.name
     save_pattern(result.pattern, tmp / "pattern.json")

@@ -269,7 +269,8 @@ def test_fifo_inputs_are_refused_not_waited_on(tmp_path):
                        (["sdf", fifo_body, "--out", tmp_path / "s.npz"], fifo_body),
                        (["drape", PENCIL, fifo_body, "--out", tmp_path / "d"], fifo_body),
                        (["grade", PENCIL, "--base-body", B0, "--target-body", B1, "--truth", fifo_pattern,
-                         "--out", tmp_path / "g"], fifo_pattern)):
+                         "--out", tmp_path / "g"], fifo_pattern),
+                       (["body", "--measurements", fifo_pattern, "--out", tmp_path / "b.obj"], fifo_pattern)):
         proc = subprocess.run([sys.executable, "-m", "seamfit", *map(str, argv)], env=env, cwd=tmp_path,
                               capture_output=True, text=True, timeout=60)
         assert proc.returncode == 2, proc.stderr
@@ -465,3 +466,12 @@ def test_a_nul_in_a_name_still_draws_a_well_formed_svg(tmp_path, capsys):
     assert code == 1 and "printable characters" in err
     root = ET.parse(tmp_path / "p.svg").getroot()           # once: not well-formed (a raw NUL)
     assert any(e.get("data-panel") == "skirt\ufffdback" for e in root.iter())
+
+
+@pytest.mark.parametrize("case", ["100k-deep nesting", "a device (/dev/zero)", "5000-digit integer"])
+def test_bad_measurement_files(tmp_path, capsys, case):
+    make, names = BAD_PATTERNS[case]
+    path = make(tmp_path)
+    code, _, err, secs = run(capsys, "body", "--measurements", path, "--out", tmp_path / "b.obj")
+    assert_refused(code, err, secs, "body", path, names[0])
+    assert not (tmp_path / "b.obj").exists()

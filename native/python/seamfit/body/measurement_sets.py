@@ -105,7 +105,9 @@ def load_measurement_sets(path) -> list[MeasurementSet]:
     """The measurement sets in a file: seamfit JSON (one body or several), a Seamly2D /
     Valentina individual file (.vit, .smis: one body) or multi-size table (.vst, .smms:
     one body per size), detected from the content."""
+    from ..limits import check_input_file
     path = Path(path)
+    check_input_file(path, "measurements", MeasurementError)   # a FIFO would block, a device never end
     try:
         text = path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
@@ -152,6 +154,8 @@ def _from_json(text: str, path: Path) -> list[MeasurementSet]:
         doc = json.loads(text)
     except ValueError as exc:
         raise MeasurementError(f"{path}: not valid JSON: {exc}") from None
+    except RecursionError:
+        raise MeasurementError(f"{path}: JSON nested too deeply to be a measurement file") from None
     if not isinstance(doc, dict):
         raise MeasurementError(f"{path}: expected a JSON object with \"measurements\" or \"bodies\"")
     if "bodies" in doc:

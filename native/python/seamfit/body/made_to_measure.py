@@ -41,6 +41,7 @@ SOFT_SIGMA_CM = 3.0         # residual scale of a value the model cannot reach
 LOCAL_PRIOR_WEIGHT = 0.3    # Tikhonov weight of a local modifier / the cup size (per unit)
 MACRO_PRIOR_WEIGHT = 0.002  # and of the macro weight and height
 MAX_STEPS = 12
+MAX_MEASURES = 12          # full measurements per fit (about 0.25 s each): bounds the time
 STEP = 1e-3                 # finite-difference step of a parameter
 
 # The priors: the parameters of the base sample bodies (women_size06 and men_medium of
@@ -174,19 +175,33 @@ def from_measurements(measurements, gender: str | None = None, name: str | None 
         r = (np.array([m[k] for k in keys]) - target) / sigma
         return float(r @ r + np.sum((p.weight * (x - p.prior)) ** 2))
 
+    def tape_objective(m, x, sigma):
+        """The objective with the measurements re-taken by m's tapes: no slicing."""
+        lengths = _tape_lengths(m["tapes"], keys, shape_vertices(p.shape(x), place=False))
+        return objective(dict(zip(keys, lengths)), x, sigma)
+
+    measures = [1]                               # full measurements taken, the costly part
+
     def solve(x, body, m, sigma, max_steps):
         """Bounded Gauss-Newton from x; returns the last accepted x, its body, measurements
         and the number of steps."""
         f = objective(m, x, sigma)
         steps = 0
-        while steps < max_steps:
+        while steps < max_steps and measures[0] < MAX_MEASURES:
             if max((abs(m[k] - v) for k, v in zip(keys, target)), default=0.0) < GOAL_CM:
                 break
             steps += 1
             dx = _gauss_newton_step(p, x, m, keys, target, sigma)
-            for _ in range(6):                       # halve a step that does not help
+            # Shorten the step on the tapes first (cheap), then measure where it lands;
+            # halve on full measurements only if the tapes were wrong.
+            for _ in range(6):
+                if tape_objective(m, np.clip(x + dx, p.lo, p.hi), sigma) < f:
+                    break
+                dx *= 0.5
+            for _ in range(3):
                 x_new = np.clip(x + dx, p.lo, p.hi)
                 body_new, m_new = measure(x_new)
+                measures[0] += 1
                 f_new = objective(m_new, x_new, sigma)
                 if f_new < f:
                     break
@@ -208,7 +223,7 @@ def from_measurements(measurements, gender: str | None = None, name: str | None 
         # Values out of the model's reach would pull the others off (a girth beyond the
         # range taking the height with it): they become soft, the rest are met.
         sigma[missed] = SOFT_SIGMA_CM
-        x, body, m, more = solve(x, body, m, sigma, MAX_STEPS // 2)
+        x, body, m, more = solve(x, body, m, sigma, 4)
         steps += more
     achieved = {k: float(m[k]) for k in MEASUREMENTS}
     result = MeasuredBody(body=body, gender=gender, requested=requested, achieved=achieved,

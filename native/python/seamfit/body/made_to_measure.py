@@ -24,7 +24,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import lsq_linear
 
 from ..errors import SeamfitError
 from .io import Body
@@ -257,6 +256,7 @@ def _tape_lengths(tapes: dict, keys: list, V: np.ndarray) -> np.ndarray:
 
 def _gauss_newton_step(p: _Parameters, x, m: dict, keys: list, target, sigma) -> np.ndarray:
     """The bounded Gauss-Newton step: measurements linearised through their tapes."""
+    from scipy.optimize import lsq_linear      # here: importing seamfit.body stays light
     tapes = m["tapes"]
     V0 = shape_vertices(p.shape(x), place=False)
     base = _tape_lengths(tapes, keys, V0)

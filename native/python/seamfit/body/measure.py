@@ -30,7 +30,6 @@ from pathlib import Path
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import ConvexHull, QhullError
 
 from ..errors import BodyError
 from .io import Body
@@ -164,6 +163,7 @@ def _hull_perimeter(pts: np.ndarray) -> float:
     """Perimeter of the 2-D convex hull (Qhull; a monotone chain where Qhull refuses
     degenerate input such as collinear points)."""
     if len(pts) >= 3:
+        from scipy.spatial import ConvexHull, QhullError   # here: importing seamfit.body stays light
         try:
             h = ConvexHull(pts)
         except (QhullError, ValueError):

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.sparse import csr_matrix
-from scipy.spatial import ConvexHull, QhullError
 
 __all__ = ["Tape"]
 
@@ -65,6 +64,7 @@ class Tape:
 
 def hull_perimeter(pts: np.ndarray) -> float:
     """Perimeter of the convex hull of 2-D points."""
+    from scipy.spatial import ConvexHull, QhullError   # here: importing seamfit.body stays light
     try:
         h = ConvexHull(pts)
     except (QhullError, ValueError):

@@ -67,6 +67,8 @@ def test_uniform_scale_passes_and_keeps_designed_ease(bodice):
     assert rep["ok"], rep["messages"]
     eased = [s for s in rep["stitches"] if s["base_mismatch_mm"] > 2.0]
     assert eased and all(s["seam_mismatch_mm"] > 2.0 and s["ok"] for s in eased)
+    # the designed ease grew with the seam: nothing is in excess of it
+    assert rep["max_seam_mismatch_mm"] > 2.0 and rep["max_seam_excess_mm"] < 1e-9
     for p in rep["panels"].values():
         assert abs(p["grain_rotation_deg"]) < 1e-6
         assert p["scale"] == pytest.approx(1.05, abs=1e-6)
@@ -130,6 +132,7 @@ def test_stitch_side_lengthened_by_3mm_is_flagged(pencil):
     assert _failing_stitches(rep) == {6}
     entry = rep["stitches"][6]
     assert entry["seam_mismatch_mm"] == pytest.approx(3.0 + entry["base_mismatch_mm"], abs=0.01)
+    assert rep["max_seam_excess_mm"] == pytest.approx(entry["excess_mm"]) and entry["excess_mm"] > 2.9
     msg = [m for m in rep["messages"] if "stitch 6" in m]
     assert len(msg) == 1 and "skirt_front [224, 0]" in msg[0] and "skirt_back [0, 32]" in msg[0]
     assert "differ by 3.00 mm" in msg[0]

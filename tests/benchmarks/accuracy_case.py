@@ -182,6 +182,7 @@ def run_case(data: Path, garment: str, body: str, base_id: str, methods: list[st
                    "objective_base_pattern": rep.get("objective_base_pattern"),
                    "refit_ok": rep["refit"]["ok"], "max_displacement_mm": rep["max_displacement_mm"],
                    "max_seam_mismatch_mm": rep["checks"].get("max_seam_mismatch_mm"),
+                   "max_seam_excess_mm": rep["checks"].get("max_seam_excess_mm"),
                    "seams_ok": all(s_["ok"] for s_ in rep["checks"].get("stitches", []))}
             base_ease = base_ease or rep["ease_cm"]["base"]
             if save_dir is not None:

@@ -113,8 +113,8 @@ def summary(res: dict) -> list[str]:
     n = len(res["cases"])
     out = ["| method | scored | failed | max cm (worst case) | median of case max cm | mean landmark cm "
            f"| cases < {PAPER_MAX_CM} cm | better than unchanged | better than scaled | median ease error cm "
-           "| median seconds |",
-           "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+           "| median seconds | > 0.3 cm worse than unchanged | stitches > 2 mm beyond designed ease |",
+           "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for m in names:
         es = [(c, entry(c, m)) for c in res["cases"]]
         ok = [(c, e) for c, e in es if _ok(e)]
@@ -124,6 +124,10 @@ def summary(res: dict) -> list[str]:
         ease = [v for v in (key_ease_error(c, e) for c, e in ok) if v is not None]
         secs = [e["seconds"] for _, e in ok if e.get("seconds") is not None]
         worst = max(ok, key=lambda ce: ce[1]["max_cm"], default=None)
+        lost = ("-" if m == "unchanged" else
+                str(sum(1 for c, e in ok if _ok(entry(c, "unchanged")) and e["max_cm"] > entry(c, "unchanged")["max_cm"] + 0.3)))
+        excess = [e["max_seam_excess_mm"] for _, e in ok if e.get("max_seam_excess_mm") is not None]
+        seams = f"{sum(v > 2.0 for v in excess)} / {len(excess)}" if excess else "-"
         out.append(f"| {m} | {len(ok)} | {n - len(ok)} | "
                    + (f"{worst[1]['max_cm']:.2f} ({worst[0]['garment']}/{worst[0]['body']})" if worst else "-")
                    + f" | {_f(statistics.median(mx) if mx else None)} | "
@@ -131,7 +135,7 @@ def summary(res: dict) -> list[str]:
                    f"{sum(v < PAPER_MAX_CM for v in mx)} / {len(ok)} | "
                    + " | ".join("-" if m == b else f"{better[b]} / {len(ok)}" for b in BASELINES)
                    + f" | {_f(statistics.median(ease) if ease else None, 1)}"
-                   + f" | {_f(statistics.median(secs) if secs else None, 1)} |")
+                   + f" | {_f(statistics.median(secs) if secs else None, 1)} | {lost} | {seams} |")
     return out
 
 

@@ -26,6 +26,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 sys.path.insert(0, str(HERE))
+from doc_page import write_page  # noqa: E402
 
 
 def run_case(data: str, garment: str, body: str, edge: float, budget: float, device: str) -> dict:
@@ -160,11 +161,8 @@ def cmd_report(a) -> int:
     img = a.docs / "img" / "accuracy_time.png"
     fig.savefig(img, dpi=110)
     lines += ["", "![error against seconds](img/accuracy_time.png)"]
-    if a.notes is not None:
-        lines += ["", a.notes.read_text().rstrip()]
-    out = a.docs / "accuracy_time.md"
-    out.write_text("\n".join(lines) + "\n")
-    print(f"wrote {out} and {img}")
+    write_page(a.docs / "accuracy_time.md", lines, a.notes)
+    print(f"wrote {img}")
     return 0
 
 

@@ -30,6 +30,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 sys.path.insert(0, str(HERE))
+from doc_page import write_page  # noqa: E402
 
 CANDIDATES = ("truth", "unchanged", "scaled", "level", "initialized", "graded")
 TERMS = ("dis", "smo", "str", "pos", "fix", "cur", "seam")
@@ -242,11 +243,7 @@ def cmd_report(a) -> int:
             t = max(diffs, key=diffs.get)
             gap = f"{t} {diffs[t]:+.3g}"
         lines.append(f"| {r['garment']} | {r['body']} | " + " | ".join(cells) + f" | {gap} |")
-    if a.notes is not None:
-        lines += ["", "## Reading", "", a.notes.read_text().rstrip()]
-    out = a.docs / "objective_alignment.md"
-    out.write_text("\n".join(lines) + "\n")
-    print(f"wrote {out}")
+    write_page(a.docs / "objective_alignment.md", lines, a.notes, "Reading")
     return 0
 
 

@@ -148,10 +148,12 @@ def output_checks(base: Pattern, result: Pattern, *, seam_tol_mm: float = SEAM_T
     ``base`` with the same panels, point counts and stitches). Returns a dict:
 
     ``ok``, ``messages`` (one per failure, naming panel or stitch), ``stitches`` (one dict per
-    stitch: lengths, ``seam_mismatch_mm``, ``base_mismatch_mm``, ``ok``), ``panels`` (per panel:
+    stitch: lengths, ``seam_mismatch_mm``, ``base_mismatch_mm``, ``designed_ease_mm`` (the
+    base's mismatch grown with the seam), ``excess_mm`` (the mismatch beyond it), ``ok``),
+    ``panels`` (per panel:
     ``grain_rotation_deg``, ``scale``, ``self_intersections``, ``orientation_ok``, areas,
     perimeters, ``max_displacement_mm``, ``max_displacement_aligned_mm``, ``ok``), the maxima
-    ``max_seam_mismatch_mm``, ``max_grain_rotation_deg``, ``max_displacement_mm`` (plain,
+    ``max_seam_mismatch_mm``, ``max_seam_excess_mm``, ``max_grain_rotation_deg``, ``max_displacement_mm`` (plain,
     ``displacement_alignment`` = "none") and ``max_displacement_aligned_mm`` (after the
     best-fit rotation + translation), and the tolerances used.
     Raises PatternError when the two patterns do not correspond.
@@ -197,7 +199,7 @@ def output_checks(base: Pattern, result: Pattern, *, seam_tol_mm: float = SEAM_T
                  "panel_a": rs.a.panel, "panel_b": rs.b.panel,
                  "length_a_cm": la, "length_b_cm": lb, "base_length_a_cm": la0, "base_length_b_cm": lb0,
                  "base_ratio": ratio0, "seam_mismatch_mm": mismatch, "base_mismatch_mm": base_mismatch,
-                 "ok": ok}
+                 "designed_ease_mm": allowed, "excess_mm": max(0.0, mismatch - allowed), "ok": ok}
         stitches.append(entry)
         if not ok:
             if rs.gathered:
@@ -214,6 +216,8 @@ def output_checks(base: Pattern, result: Pattern, *, seam_tol_mm: float = SEAM_T
         "stitches": stitches,
         "panels": panels,
         "max_seam_mismatch_mm": max((s["seam_mismatch_mm"] for s in stitches), default=0.0),
+        # beyond the designed ease the base pattern already had (a shoulder's few mm)
+        "max_seam_excess_mm": max((s["excess_mm"] for s in stitches), default=0.0),
         "max_grain_rotation_deg": max((abs(p["grain_rotation_deg"]) for p in panels.values()), default=0.0),
         "displacement_alignment": "none",
         "max_displacement_mm": max((p["max_displacement_mm"] for p in panels.values()), default=0.0),

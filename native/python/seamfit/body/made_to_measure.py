@@ -273,22 +273,20 @@ def _gauss_newton_step(p: _Parameters, x, m: dict, keys: list, target, sigma) ->
 
 
 def _problems(p: _Parameters, x, result: MeasuredBody) -> list:
-    """Why each measurement missed by more than the tolerance is missed."""
-    limits = []
-    for n, v in zip(p.names, x):
-        if n[-1] in "+-":                        # a local modifier's target weight: at 1 is its end
-            if v >= 1 - 1e-3:
-                limits.append(f"the {n[:-1]} modifier at {n[-1]}1")
-        elif v <= 1e-3 or v >= 1 - 1e-3:
-            limits.append(f"macro {n} at {'1' if v > 0.5 else '0'}")
+    """Why each measurement missed by more than the tolerance is missed: the macros and
+    the measurement's own modifier at the end of their ranges, else the others' pull."""
+    macros = [f"macro {n} at {'1' if v > 0.5 else '0'}" for n, v in zip(p.names, x)
+              if n[-1] not in "+-" and (v <= 1e-3 or v >= 1 - 1e-3)]
     out = []
     for key, err in result.errors.items():
         if abs(err) <= TOLERANCE_CM:
             continue
+        own = [f"the {m} modifier at {side}1" for m in SERVES.get(key, (key,)) for side in "+-"
+               if m + side in p.names and x[p.names.index(m + side)] >= 1 - 1e-3]
         line = (f"{key}: requested {result.requested[key]:.1f} cm, achieved {result.achieved[key]:.1f} cm "
                 f"({err:+.1f})")
-        if limits:
-            line += f": out of the model's range ({', '.join(limits)})"
+        if own or macros:
+            line += f": out of the model's range ({', '.join(own + macros)})"
         else:
             line += ": inconsistent with the other measurements (the model cannot meet them together)"
         out.append(line)

@@ -57,11 +57,16 @@ def test_drape_progress_goes_to_stderr(tmp_path, capsys):
                    "--no-coarse-start"])
     err = capsys.readouterr().err
     assert "iteration" in err and "relative residual" in err
-    assert rc == 1 and "NOT converged" in err  # 300 iterations are not enough, and it says so
+    assert rc == 0 and "NOT converged" in err  # 300 iterations are not enough, and it says so
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["converged"] is False and "not converged" in report["message"]
     assert not (tmp_path / "drape.png").exists()
     assert report["pictures"] == {"drape.png": {"written": False, "reason": "--no-picture"}}
+    # a pipeline that wants a settled drape asks for a failing exit code
+    rc = cli.main(["drape", str(PATTERN), str(BODY), "--out", str(tmp_path), "--force", "--edge-length", "3",
+                   "--sdf-spacing", "0.005", "--max-iterations", "300", "--no-polish", "--no-picture",
+                   "--no-coarse-start", "-q", "--fail-unconverged"])
+    assert rc == 1 and json.loads((tmp_path / "report.json").read_text())["converged"] is False
     assert [s["stage"] for s in report["stages"]] == ["sew", "settle"] and report["coarse_start"] is False
 
 

@@ -274,14 +274,17 @@ def _gauss_newton_step(p: _Parameters, x, m: dict, keys: list, target, sigma) ->
 
 def _problems(p: _Parameters, x, result: MeasuredBody) -> list:
     """Why each measurement missed by more than the tolerance is missed: the macros and
-    the measurement's own modifier at the end of their ranges, else the others' pull."""
-    macros = [f"macro {n} at {'1' if v > 0.5 else '0'}" for n, v in zip(p.names, x)
-              if n[-1] not in "+-" and (v <= 1e-3 or v >= 1 - 1e-3)]
+    the measurement's own modifier that end at their limit in the direction the value
+    needs, else the other measurements' pull."""
     out = []
     for key, err in result.errors.items():
         if abs(err) <= TOLERANCE_CM:
             continue
-        own = [f"the {m} modifier at {side}1" for m in SERVES.get(key, (key,)) for side in "+-"
+        grow = err < 0                           # the body needs more of this measurement
+        macros = [f"macro {n} at {1 if grow else 0}" for n, v in zip(p.names, x)
+                  if n[-1] not in "+-" and (v >= 1 - 1e-3 if grow else v <= 1e-3)]
+        side = "+" if grow else "-"
+        own = [f"the {m} modifier at {side}1" for m in SERVES.get(key, (key,))
                if m + side in p.names and x[p.names.index(m + side)] >= 1 - 1e-3]
         line = (f"{key}: requested {result.requested[key]:.1f} cm, achieved {result.achieved[key]:.1f} cm "
                 f"({err:+.1f})")

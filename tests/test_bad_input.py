@@ -475,3 +475,13 @@ def test_bad_measurement_files(tmp_path, capsys, case):
     code, _, err, secs = run(capsys, "body", "--measurements", path, "--out", tmp_path / "b.obj")
     assert_refused(code, err, secs, "body", path, names[0])
     assert not (tmp_path / "b.obj").exists()
+
+
+def test_the_mesh_limit_holds_for_every_caller_of_the_mesher():
+    from seamfit.errors import LimitError
+    from seamfit.mesh import build_sewn_mesh
+    from seamfit.pattern import load_pattern
+    t0 = time.perf_counter()
+    with pytest.raises(LimitError, match="SEAMFIT_MAX_MESH_VERTICES"):
+        build_sewn_mesh(load_pattern(PENCIL), 0.05)
+    assert time.perf_counter() - t0 < FAST_S

@@ -81,6 +81,8 @@ def estimated_mesh_vertices(pattern, edge_length_cm: float) -> float:
     equilateral triangles of that edge (two per vertex inside) plus the boundary vertices."""
     import numpy as np
     h = float(edge_length_cm)
+    if not (math.isfinite(h) and h > 0):
+        return 0.0                                # not an edge length: the mesher says so
     total = 0.0
     for p in pattern.panels:
         o = np.asarray(p.outline_cm, dtype=float)

@@ -185,8 +185,10 @@ def _outward_normal(pattern: Pattern, k: int) -> tuple[np.ndarray, np.ndarray]:
 def build_sewn_mesh(pattern: Pattern, edge_length_cm: float = DEFAULT_EDGE_LENGTH_CM, *,
                     algorithm: str = DEFAULT_ALGORITHM) -> SewnMesh:
     """Sample every panel boundary, triangulate every panel, and pair the seam vertices."""
+    from ..limits import check_mesh_size
     t_start = time.perf_counter()
     src = pattern.source_file or "<pattern>"
+    check_mesh_size(pattern, edge_length_cm)     # every caller, not only the commands
     bnd: PatternBoundary = sample_boundary(pattern, edge_length_cm)
     h = bnd.edge_length_cm
     normals = [_outward_normal(pattern, k) for k in range(len(pattern.panels))]

@@ -485,3 +485,17 @@ def test_the_mesh_limit_holds_for_every_caller_of_the_mesher():
     with pytest.raises(LimitError, match="SEAMFIT_MAX_MESH_VERTICES"):
         build_sewn_mesh(load_pattern(PENCIL), 0.05)
     assert time.perf_counter() - t0 < FAST_S
+
+
+def test_many_pattern_errors_are_capped_with_a_count(tmp_path, capsys):
+    d = pencil()
+    for e in d["panels"][0]["edges"]:
+        e["kind"] = "spline"
+    pattern = write(tmp_path, "many.json", d)
+    n = len(d["panels"][0]["edges"])
+    code, _, err, secs = run(capsys, "mesh", pattern, "--out", tmp_path / "out")
+    assert_refused(code, err, secs, "mesh", "unknown curve kind")
+    lines = err.splitlines()
+    assert len(lines) == cli.MAX_ERROR_LINES + 1
+    assert lines[-1] == (f"seamfit mesh: error: ... and {n - cli.MAX_ERROR_LINES} more "
+                         "(seamfit validate lists them all)")

@@ -180,9 +180,10 @@ def _check_outline(panel: Panel, where: str, rep: ValidationReport) -> bool:
         return False
     far = np.nonzero(np.abs(o).max(axis=1) > MAX_COORD_CM)[0].tolist()
     if far:
-        rep.errors.append(f"{where}: outline vert{'ex' if len(far) == 1 else 'ices'} {_listing(far, str)} "
-                          f"lie{'s' if len(far) == 1 else ''} {np.abs(o[far[0]]).max():.3g} cm from the panel's origin, beyond {MAX_COORD_CM:.0f} cm (1 km): not a garment's "
-                          "coordinates")
+        one = len(far) == 1
+        rep.errors.append(f"{where}: outline vert{'ex' if one else 'ices'} {_listing(far, str)} "
+                          f"lie{'s' if one else ''} {np.abs(o[far[0]]).max():.3g} cm from the panel's origin, "
+                          f"beyond {MAX_COORD_CM:.0f} cm (1 km): not a garment's coordinates")
         return False
     step = np.linalg.norm(np.roll(o, -1, axis=0) - o, axis=1)
     closing_dup = n >= 4 and step[-1] <= SAME_POINT_CM
@@ -386,8 +387,8 @@ def validate_pattern(pattern: Pattern, *, seam_tolerance_cm: float = SEAM_TOLERA
 
 
 def check_pattern(pattern: Pattern, **tolerances) -> ValidationReport:
-    """Validate and raise ValidationError (a PatternError) listing every error; returns the report (with any
-    warnings) when there are none."""
+    """Validate and raise ValidationError (a PatternError) listing every error; returns the
+    report (with any warnings) when there are none."""
     rep = validate_pattern(pattern, **tolerances)
     if rep.errors:
         raise ValidationError(f"{rep.source}: invalid pattern, {len(rep.errors)} error(s):\n"

@@ -398,13 +398,10 @@ class GradeOutput:
     target_body: Any = None     # seamfit's Body of the target
 
 
-# Where each stage of seamfit.opt.grade sits on the progress bar.
-_GRADE_STAGES = {"mesh": 0.01, "sdf": 0.03, "base drape": 0.08, "transfer": 0.25,
-                 "base pattern on target": 0.27, "initialize": 0.32, "initial drape": 0.35,
-                 "checkpoint": None, "optimize": 0.4}
-
-
-def _grade_progress(job, max_outer: int):
+def _grade_progress(job, tracker):
+    """seamfit's progress callback for a grading: seamfit.progress turns its events into
+    named stages, a fraction that never goes backwards and the time left, as the command
+    line shows them."""
     def progress(info: dict) -> bool:
         # Called from inside seamfit's solvers (some in C++): answer False to stop, never raise.
         try:
@@ -414,15 +411,11 @@ def _grade_progress(job, max_outer: int):
         return not job.cancelled
 
     def report(info: dict) -> None:
-        stage = info.get("stage", "")
-        if stage == "optimize" and info.get("iteration") is not None:
-            frac = 0.4 + 0.6 * min(1.0, info["iteration"] / max(1, max_outer))
-            job.update(stage="optimizing", fraction=frac, objective=info.get("objective"),
-                       iteration=info.get("iteration"))
-        elif "residual" in info:
-            job.update(stage=stage)
-        else:
-            job.update(stage=stage, fraction=_GRADE_STAGES.get(stage))
+        snap = tracker.observe(info)
+        search = info.get("stage") == "optimize" and info.get("iteration") is not None
+        job.update(stage=snap.stage, fraction=snap.fraction, eta=snap.eta,
+                   objective=info.get("objective") if search else None,
+                   iteration=info.get("iteration") if search else None)
     return progress
 
 
@@ -446,17 +439,17 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
             sdf_spacing=float(inp.sim.get("sdf_spacing_m", 0.0025)),
             inner_iterations=int(inp.opt["S"]), checkpoint_every=int(inp.opt["M"]),
             max_outer_iterations=int(inp.opt["iterations"]), device=inp.device)
+        tracker = seamfit_module("progress").for_grading(pattern, settings, tolerance=float(sim_settings.tolerance))
         try:
             res = opt.grade(pattern, body_object(inp.base), body_object(inp.target), settings,
-                            fabric=fabric, sim_settings=sim_settings,
-                            progress=_grade_progress(job, settings.max_outer_iterations))
+                            fabric=fabric, sim_settings=sim_settings, progress=_grade_progress(job, tracker))
         except SolveError:
             job.check()         # cancelled: nothing is cached
             raise
         job.check()
         return res
     res = CACHE.get("grade", key, make)
-    job.update(stage="done", fraction=1.0)
+    job.update(stage="done", fraction=1.0, eta=0.0)
     import copy
     graded = copy.deepcopy(res.pattern)     # the cached result stays as seamfit made it
     graded.body_id = inp.target.name

@@ -39,6 +39,7 @@ class Job:
         self._lock = threading.Lock()
         self.stage = "waiting"
         self.fraction = 0.0
+        self.eta: float | None = None       # seconds left, where the computation estimates it
         self.objective: float | None = None
         self.history: list[tuple[int, float]] = []
         self.result: Any = None
@@ -49,12 +50,16 @@ class Job:
 
     # -- worker side --------------------------------------------------------
     def update(self, stage: str | None = None, fraction: float | None = None,
-               objective: float | None = None, iteration: int | None = None) -> None:
+               objective: float | None = None, iteration: int | None = None,
+               eta: float | None = None) -> None:
         with self._lock:
             if stage is not None:
                 self.stage = stage
             if fraction is not None:
-                self.fraction = min(max(float(fraction), 0.0), 1.0)
+                # Never backwards, whatever the stage reports.
+                self.fraction = max(self.fraction, min(max(float(fraction), 0.0), 1.0))
+            if eta is not None:
+                self.eta = max(float(eta), 0.0) if math.isfinite(eta) else None
             if objective is not None:
                 self.objective = float(objective)
                 self.history.append((int(iteration if iteration is not None else len(self.history)),
@@ -141,9 +146,25 @@ class Job:
 
     def snapshot(self) -> dict:
         with self._lock:
-            return {"label": self.label, "stage": self.stage, "fraction": self.fraction,
+            return {"label": self.label, "stage": self.stage, "fraction": self.fraction, "eta": self.eta,
                     "objective": self.objective, "iterations": len(self.history),
                     "elapsed": self.elapsed(), "cancelled": self.cancelled}
+
+
+def _clock(seconds: float) -> str:
+    if seconds < 60:
+        return f"{seconds:.0f} s"
+    m, s = divmod(int(round(seconds)), 60)
+    return f"{m}:{s:02d}" if m < 60 else f"{m // 60}:{m % 60:02d}:{s:02d}"
+
+
+def progress_text(snap: dict) -> str:
+    """"optimizing 42%, about 1:02 left" for the progress bar and the status bar."""
+    text = f"{snap['stage']} {100 * snap['fraction']:.0f}%"
+    eta = snap.get("eta")
+    if eta is not None and snap["fraction"] < 1.0:
+        text += f", about {_clock(eta)} left"
+    return text
 
 
 def active() -> Job | None:

@@ -195,7 +195,7 @@ class _JobOperator:
         snap = runner.job.snapshot()
         wm = context.window_manager
         wm.progress_update(int(100 * snap["fraction"]))
-        text = f"seamfit: {snap['stage']} ({100 * snap['fraction']:.0f}%)"
+        text = f"seamfit: {jobs.progress_text(snap)}"
         if snap["objective"] is not None:
             text += f", objective {snap['objective']:.6g}"
         if context.workspace is not None:

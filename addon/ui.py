@@ -154,7 +154,7 @@ class SEAMFIT_PT_run(_SeamfitPanel, bpy.types.Panel):
         if job is not None and not job.done:
             snap = job.snapshot()
             layout.progress(factor=snap["fraction"], type="BAR",
-                            text=f"{snap['stage']} {100 * snap['fraction']:.0f}%")
+                            text=jobs.progress_text(snap))
             if snap["objective"] is not None:
                 layout.label(text=f"Objective {snap['objective']:.6g} (iteration {snap['iterations']})")
             layout.label(text=f"{snap['elapsed']:.1f} s   Esc or Cancel stops it")

@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 
 from ..output_set import OutputSet, add_force_argument
@@ -158,23 +157,19 @@ def run(args) -> int:
                              time_budget_s=args.time_budget, device=args.device,
                              adjoint_forcing=args.adjoint_forcing)
     settings.validate()
-    t0 = time.perf_counter()
-
-    def progress(info):
-        if args.quiet:
-            return None
-        if info.get("stage") == "optimize":
-            if info.get("exact"):
-                tag = "backtrack" if info.get("backtrack") else "checkpoint"
-                print(f"[{time.perf_counter() - t0:7.1f}s] outer {info['iteration']:4d}  objective "
-                      f"{info['objective']:.6g}  ({tag})", file=sys.stderr, flush=True)
-        elif "sim_iteration" not in info:
-            print(f"[{time.perf_counter() - t0:7.1f}s] {info['stage']}", file=sys.stderr, flush=True)
-        return None
+    # Named stages, the share done and the time left: a bar on a terminal, plain lines in
+    # a log (seamfit.progress); -q: none.
+    from ..progress import ConsoleProgress, for_grading
+    progress = None if args.quiet else ConsoleProgress(for_grading(base_pattern, settings, writing=True))
 
     inputs = [args.pattern, args.base_body, args.target_body, args.truth]
-    with OutputSet(out, inputs=inputs, force=args.force) as tmp:
-        report = _grade(args, settings, progress, base_pattern, base_body, target_body, truth, tmp)
+    try:
+        with OutputSet(out, inputs=inputs, force=args.force) as tmp:
+            report = _grade(args, settings, progress, base_pattern, base_body, target_body, truth, tmp)
+    except BaseException:
+        if progress is not None:
+            progress.fail()     # the error's line starts on a line of its own
+        raise
     if not args.quiet:
         pics = "".join(f", {name}" for name in written(report["pictures"]))
         print(f"wrote {out}/pattern.json, pattern.svg, garment.obj, report.json{pics}", file=sys.stderr)
@@ -225,6 +220,8 @@ def _grade(args, settings, progress, base_pattern, base_body, target_body, truth
     from ..pattern import save_pattern, write_svg
 
     result = grade(base_pattern, base_body, target_body, settings, progress=progress)
+    if progress is not None:
+        progress.enter("writing")
     report = dict(result.report)
     report["inputs"] = {"pattern": str(args.pattern), "base_body": str(args.base_body),
                         "target_body": str(args.target_body)}
@@ -248,6 +245,8 @@ def _grade(args, settings, progress, base_pattern, base_body, target_body, truth
         report["pictures"] = draw_pictures(tmp, _drawers(args, base_pattern, result, base_body, target_body),
                                            command="grade")
     atomic_write_text(tmp / "report.json", json.dumps(report, indent=1, default=json_default) + "\n")
+    if progress is not None:
+        progress.close()
     if (report.get("sdf") or {}).get("warning"):  # even with -q: collisions may have been missed
         print(f"seamfit grade: warning: {report['sdf']['warning']}", file=sys.stderr)
     if not args.quiet:
@@ -256,6 +255,7 @@ def _grade(args, settings, progress, base_pattern, base_body, target_body, truth
               f"({100 * r['objective_reduction']:.1f} % lower) in {r['outer_iterations']} iterations, "
               f"{r['seconds_total']:.1f} s; max pattern change {r['max_displacement_mm']:.1f} mm", file=sys.stderr)
         _print_time_split(r)
+        print(progress.stages_line(), file=sys.stderr)
         if "accuracy" in r:
             print(f"landmark error vs truth: max {r['accuracy']['graded']['max_cm']:.2f} cm "
                   f"(unchanged base: {r['accuracy']['base_unchanged']['max_cm']:.2f} cm)", file=sys.stderr)

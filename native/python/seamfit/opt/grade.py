@@ -152,6 +152,7 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
     ctx = prepare(base_pattern, base_body, target_body, settings, fabric=fabric, sim_settings=sim_settings,
                   progress=progress)
     outcome = SEARCHES[settings.method](ctx)
+    ctx.tell(stage="refit")    # the pattern's curves refitted, the checks and the report
     result = finish(ctx, settings.method, outcome)
     # The fields' regions and sizes; a cropped target field is checked against the result
     # (the base one was checked at the end of the base drape).

@@ -1,0 +1,494 @@
+"""Progress of a grading that tells the truth: named stages, a fraction of the whole job
+that never goes backwards, the time elapsed and an estimate of the time left.
+
+``seamfit.opt.grade.grade`` reports through ``progress(info)`` dicts (``stage``; during
+the search ``iteration``, ``exact``, ``objective``; inside simulations ``sim_iteration``
+and ``residual``). ``GradeProgress.observe(info)`` turns each into a ``Snapshot``; it only
+observes, so a caller's callback still decides about cancelling (returning False). The
+command line draws snapshots with ``ConsoleProgress``, the Blender add-on with its job's
+progress bar.
+
+How the numbers are made
+------------------------
+The fraction is time-based: elapsed / (elapsed + time left). Time left is the rest of the
+current stage plus the predicted seconds of the stages still to come.
+
+* Predictions (``plan_grading``) come from a simple model measured on the sample pencil
+  skirt (size 6 to 10, CPU, 2 cores; see ``_MODEL``): each stage costs
+  ``a * (n / 1000) ** p`` seconds for a mesh of n vertices (the body fields scale with
+  the number of grid nodes instead), and the search costs N outer iterations at
+  ``t_iteration`` each plus one exact checkpoint every M iterations at ``t_checkpoint``,
+  so its share grows with the iteration budget and with the mesh. On the GPU the
+  simulations and the search use the H100 figures of docs/gpu.md.
+* Measurements replace predictions as soon as there are any: a finished stage counts
+  with its real duration, a stage that overruns its prediction pushes the later ones up
+  by the same factor, a drape's remaining time follows its residual's fall towards the
+  tolerance (log scale), and the search's remaining time follows its own measured time
+  per outer iteration and per checkpoint.
+* A backtrack sends the search's iteration back and a restart may raise the estimate:
+  the time left may grow, the fraction then waits; it never goes backwards.
+* A search that converges before its budget ends sooner than estimated (the fraction
+  jumps forward).
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+# The stages of a grading, in order, as they are named to the user.
+STAGES = ("meshing", "body fields", "base drape", "transfer", "initial drapes", "optimizing", "refit",
+          "writing")
+
+# seamfit.opt's stage names (the ``stage`` of progress events and of the simulations
+# inside them) to the stages above. Unknown names are shown as they are and their time
+# counts towards the stage in progress.
+EVENT_STAGES = {
+    "mesh": "meshing", "sdf": "body fields", "base drape": "base drape", "transfer": "transfer",
+    "level scaling": "initial drapes", "base pattern on target": "initial drapes",
+    "level-scaled start": "initial drapes", "initialize": "initial drapes", "initial drape": "initial drapes",
+    "optimize": "optimizing", "checkpoint": "optimizing", "fixed point": "optimizing",
+    "refit": "refit", "writing": "writing",
+}
+
+# Seconds of each stage on the CPU: a * (n / 1000) ** p, n the mesh's vertices; the
+# search's outer iteration and checkpoint likewise. Measured with the sample pencil skirt
+# graded from size 6 to size 10 at 3, 2 and 1.5 cm edges (866, 1.6K and 3K vertices) on a
+# 2-core machine that was running other work too, fresh caches; "body fields" is seconds
+# per million grid nodes of the two fields (about 0.35 M nodes each at 5 mm).
+_MODEL = {
+    "meshing": (0.15, 1.0),
+    "base drape": (2.0, 1.6),
+    "transfer": (0.25, 1.2),
+    "initial drapes": (3.0, 1.3),
+    "refit": (0.6, 1.0),
+    "writing": (1.5, 0.5),
+    "t_iteration": (0.035, 1.2),
+    "t_checkpoint": (1.2, 1.4),
+}
+_FIELD_SECONDS_PER_MNODE = 4.0
+_FIELD_NODES_AT_5MM = 0.35e6
+# docs/gpu.md and issue measurements on an H100: the default skirt (3K vertices) graded in
+# 2.4 s of precompute and 4.1 s for 256 iterations; simulations are that much faster there.
+_GPU_SPEEDUP = {"base drape": 4.0, "initial drapes": 4.0, "t_iteration": 3.0, "t_checkpoint": 4.0}
+
+
+def estimate_vertices(pattern, edge_length_cm: float) -> int:
+    """The sewn mesh's vertex count before it is built: the panels' area over the area of
+    an equilateral triangle at that edge, two triangles per vertex, plus 15 % for the
+    boundary's smaller triangles (within about 30 % on the sample patterns)."""
+    area = sum(abs(p.signed_area_cm2()) for p in getattr(pattern, "panels", []))
+    h = max(float(edge_length_cm), 1e-3)
+    return max(int(1.15 * area / (math.sqrt(3) / 4 * h * h) / 2), 10)
+
+
+def _cost(name: str, n: int, device: str) -> float:
+    a, p = _MODEL[name]
+    t = a * (max(n, 1) / 1000.0) ** p
+    return t / _GPU_SPEEDUP.get(name, 1.0) if device == "cuda" else t
+
+
+@dataclass
+class Plan:
+    """Predicted seconds of each stage and of the search's pieces."""
+    seconds: dict                      # stage -> predicted seconds (the search's from the pieces below)
+    iterations: int = 0                # N: the outer iteration budget
+    checkpoint_every: int = 32         # M (1: every iteration is an exact drape, as the fixed point's)
+    t_iteration: float = 0.0
+    t_checkpoint: float = 0.0
+    time_budget_s: float = 0.0
+    tolerance: float = 1e-3            # of the exact drapes: their residual falls towards it
+
+    def checkpoints(self) -> int:
+        if self.iterations <= 0:
+            return 0
+        return -(-self.iterations // self.checkpoint_every)
+
+    def search_seconds(self) -> float:
+        return self.iterations * self.t_iteration + self.checkpoints() * self.t_checkpoint
+
+    def shares(self) -> dict:
+        """Each stage's predicted share of the whole job."""
+        total = sum(self.seconds.values()) or 1.0
+        return {s: t / total for s, t in self.seconds.items()}
+
+
+def plan_grading(settings=None, n_vertices: int | None = None, *, pattern=None, device: str | None = None,
+                 tolerance: float = 1e-3, writing: bool = False) -> Plan:
+    """The predicted stages of ``seamfit.opt.grade.grade`` with ``settings`` (GradeSettings)
+    on a mesh of ``n_vertices`` (or as estimated from ``pattern``). ``writing``: the
+    command line's own last stage (files and pictures)."""
+    if settings is None:
+        from .opt.grade import GradeSettings
+        settings = GradeSettings()
+    if n_vertices is None:
+        n_vertices = estimate_vertices(pattern, settings.edge_length_cm) if pattern is not None else 3000
+    n = int(n_vertices)
+    dev = device or getattr(settings, "device", "cpu")
+    dev = "cuda" if dev == "cuda" else "cpu"
+    spacing = max(float(getattr(settings, "sdf_spacing", 0.0025)), 1e-4)
+    nodes = 2 * _FIELD_NODES_AT_5MM * (0.005 / spacing) ** 3
+    seconds = {"meshing": _cost("meshing", n, dev), "body fields": _FIELD_SECONDS_PER_MNODE * nodes / 1e6,
+               "base drape": _cost("base drape", n, dev), "transfer": _cost("transfer", n, dev),
+               "initial drapes": _cost("initial drapes", n, dev)}
+    method = getattr(settings, "method", "adjoint")
+    iterations = int(getattr(settings, "max_outer_iterations", 256))
+    every = 1 if method == "fixed-point" else max(int(getattr(settings, "checkpoint_every", 32)), 1)
+    t_it = 0.0 if method == "fixed-point" else _cost("t_iteration", n, dev)
+    # S simulation iterations per outer iteration: the model's were measured at S = 8.
+    t_it *= max(getattr(settings, "inner_iterations", 8), 1) / 8 * 0.5 + 0.5
+    plan = Plan(seconds=seconds, iterations=iterations, checkpoint_every=every, t_iteration=t_it,
+                t_checkpoint=_cost("t_checkpoint", n, dev), time_budget_s=float(getattr(settings, "time_budget_s", 0.0)),
+                tolerance=float(tolerance))
+    seconds["optimizing"] = plan.search_seconds()
+    if plan.time_budget_s > 0:
+        seconds["optimizing"] = min(seconds["optimizing"], plan.time_budget_s)
+    seconds["refit"] = _cost("refit", n, dev)
+    if writing:
+        seconds["writing"] = _cost("writing", n, "cpu")
+    return plan
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """Where a job stands."""
+    stage: str                 # the stage's name (STAGES, or an unknown event's own name)
+    fraction: float            # of the whole job, in [0, 1]; never lower than the previous one
+    elapsed: float             # seconds since the job started
+    eta: float                 # seconds left, estimated (finite, >= 0)
+    detail: str = ""           # e.g. "outer 96/256, objective 0.0123"
+    index: int = 0             # the stage's place in the plan (1-based), 0 if unknown
+    count: int = 0             # how many stages the plan has
+    objective: Optional[float] = None
+    iteration: Optional[int] = None
+
+
+def format_seconds(s: float) -> str:
+    """1:05 or 12.3s, as a person reads a clock."""
+    if not math.isfinite(s):
+        return "?"
+    if s < 60:
+        return f"{s:.0f}s" if s >= 10 else f"{s:.1f}s"
+    m, sec = divmod(int(round(s)), 60)
+    if m < 60:
+        return f"{m}:{sec:02d}"
+    h, m = divmod(m, 60)
+    return f"{h}:{m:02d}:{sec:02d}"
+
+
+class GradeProgress:
+    """Follows one job's progress events (see the module's docstring)."""
+
+    def __init__(self, plan: Plan, clock: Callable[[], float] = time.perf_counter):
+        self.plan = plan
+        self.clock = clock
+        self.order = [s for s in STAGES if s in plan.seconds]
+        self.t0 = clock()
+        self.current = -1                  # index into self.order; -1 before the first event
+        self.stage_start = self.t0
+        self.label = "starting"
+        self.actual: dict[str, float] = {}
+        self.fraction = 0.0
+        self.finished = False
+        self._p = 0.0                      # the current stage's own progress, from its residuals
+        self._r0: Optional[float] = None
+        self._sim_stage: Optional[str] = None
+        self.iteration: Optional[int] = None
+        self.objective: Optional[float] = None
+        # The search: when it started, its last event, and the measured pieces.
+        self._loop_last: Optional[float] = None
+        self._it_times: list[float] = []
+        self._ck_times: list[float] = []
+        self._last_snapshot: Optional[Snapshot] = None
+
+    # -- events ---------------------------------------------------------------
+    def observe(self, info: dict) -> Snapshot:
+        """Take one progress event; the snapshot after it."""
+        now = self.clock()
+        raw = str(info.get("stage", ""))
+        stage = EVENT_STAGES.get(raw) or ("optimizing" if "optimi" in raw else None)
+        if stage is not None:
+            self._enter(stage, now)
+        self.label = stage or raw or self.label
+        if "sim_iteration" in info:
+            self._residual(raw, info.get("residual"))
+        elif stage == "optimizing" and info.get("iteration") is not None:
+            self._search(info, now)
+        return self.snapshot(now)
+
+    def enter(self, stage: str) -> Snapshot:
+        """A stage of the caller's own (the command line's "writing")."""
+        return self.observe({"stage": stage})
+
+    def finish(self) -> Snapshot:
+        """The job is done: fraction 1, nothing left."""
+        now = self.clock()
+        if not self.finished:
+            self._close(now)
+            self.finished = True
+            self.fraction = 1.0
+        return self.snapshot(now)
+
+    def seconds_by_stage(self) -> dict:
+        """Measured seconds of each stage reached so far (the current one until now)."""
+        out = dict(self.actual)
+        if 0 <= self.current < len(self.order) and not self.finished:
+            s = self.order[self.current]
+            out[s] = out.get(s, 0.0) + self.clock() - self.stage_start
+        return out
+
+    # -- internals ------------------------------------------------------------
+    def _enter(self, stage: str, now: float) -> None:
+        if stage not in self.order:
+            return
+        i = self.order.index(stage)
+        if i <= self.current:
+            return      # a later piece of an earlier stage (the target's field after the transfer)
+        first = self.current < 0
+        self._close(now)
+        for skipped in self.order[self.current + 1:i]:
+            self.actual.setdefault(skipped, 0.0)
+        # The checks before the first event count towards the first stage.
+        self.current, self.stage_start = i, (self.t0 if first else now)
+        self._p, self._r0, self._sim_stage = 0.0, None, None
+
+    def _close(self, now: float) -> None:
+        if 0 <= self.current < len(self.order):
+            s = self.order[self.current]
+            self.actual[s] = self.actual.get(s, 0.0) + now - self.stage_start
+            self.stage_start = now
+
+    def _residual(self, raw: str, r) -> None:
+        """A drape's progress: how far its residual fell from its first value towards the
+        tolerance, on a log scale (only for a stage that is one drape: the base drape)."""
+        if raw != self._sim_stage:
+            self._sim_stage, self._r0 = raw, None
+        if raw != "base drape" or r is None:
+            return
+        r = float(r)
+        tol = self.plan.tolerance
+        if not (r > 0 and math.isfinite(r)):
+            return
+        if self._r0 is None:
+            self._r0 = max(r, tol * 1.0001)
+        done = math.log(self._r0 / max(r, tol)) / math.log(self._r0 / tol)
+        self._p = max(self._p, min(max(done, 0.0), 1.0))
+
+    def _search(self, info: dict, now: float) -> None:
+        k = int(info["iteration"])
+        self.iteration = k
+        if info.get("objective") is not None:
+            self.objective = float(info["objective"])
+        last = self._loop_last if self._loop_last is not None else self.stage_start
+        dt = max(now - last, 0.0)
+        if info.get("exact"):
+            # A checkpoint's interval holds one outer iteration too (not a backtrack's).
+            t_it = self._t_iteration()
+            self._ck_times.append(max(dt - (0.0 if info.get("backtrack") else t_it), 0.0))
+        elif self._loop_last is not None:
+            self._it_times.append(dt)
+        self._loop_last = now
+
+    def _t_iteration(self) -> float:
+        if self._it_times:
+            recent = self._it_times[-64:]
+            return sum(recent) / len(recent)
+        return self.plan.t_iteration * self._factor()
+
+    def _t_checkpoint(self) -> float:
+        if self._ck_times:
+            recent = self._ck_times[-4:]
+            return sum(recent) / len(recent)
+        return self.plan.t_checkpoint * self._factor()
+
+    def _factor(self, now: float | None = None) -> float:
+        """How much slower (> 1) or faster than the model this machine runs, from the
+        stages finished so far; stages much faster than predicted (a cached base drape) say
+        nothing about the machine and are left out."""
+        done_t = done_p = 0.0
+        for s, t in self.actual.items():
+            p = self.plan.seconds.get(s, 0.0)
+            if p > 0.05 and t >= 0.25 * p:
+                done_t, done_p = done_t + t, done_p + p
+        if done_p <= 0:
+            return 1.0
+        return min(max(done_t / done_p, 0.2), 5.0)
+
+    def _search_left(self, now: float, factor: float) -> float:
+        plan = self.plan
+        k = self.iteration or 0
+        n, m = plan.iterations, plan.checkpoint_every
+        checkpoints_left = (-(-n // m) - k // m) if n > 0 else 0
+        left = max(n - k, 0) * self._t_iteration() + max(checkpoints_left, 0) * self._t_checkpoint()
+        if self._loop_last is not None:
+            left -= now - self._loop_last    # the piece under way is partly done
+        else:
+            left = plan.search_seconds() * factor - (now - self.stage_start)
+        if plan.time_budget_s > 0:
+            budget_left = plan.time_budget_s - (now - self.t0) + self._t_checkpoint()
+            left = min(left, max(budget_left, 0.0))
+        return max(left, 0.02 * (now - self.stage_start))
+
+    def _stage_left(self, stage: str, now: float, factor: float) -> float:
+        t = now - self.stage_start
+        if stage == "optimizing":
+            return self._search_left(now, factor)
+        pred = self.plan.seconds.get(stage, 0.0) * factor
+        p = self._p
+        if p > 0:
+            # Towards the rate measured in this stage as its own progress grows.
+            w = min(1.0, p / 0.3)
+            total = (1 - w) * pred + w * t / p
+            return max(total - t, 0.0)
+        # Past its prediction: assume it is a quarter further on than its time so far.
+        return max(pred - t, 0.25 * t)
+
+    def time_left(self, now: float | None = None) -> float:
+        now = self.clock() if now is None else now
+        if self.finished:
+            return 0.0
+        factor = self._factor(now)
+        if self.current < 0:
+            return sum(self.plan.seconds.values())
+        stage = self.order[self.current]
+        left = self._stage_left(stage, now, factor)
+        pred = self.plan.seconds.get(stage, 0.0)
+        t = now - self.stage_start
+        if stage != "optimizing" and pred > 0.05 and t > pred * factor:
+            factor = min(max(factor, t / pred), 5.0)   # an overrun says the machine is slower
+        for s in self.order[self.current + 1:]:
+            left += self.plan.seconds[s] * factor
+        return max(left, 0.0)
+
+    def snapshot(self, now: float | None = None) -> Snapshot:
+        now = self.clock() if now is None else now
+        elapsed = max(now - self.t0, 0.0)
+        eta = self.time_left(now)
+        if not self.finished:
+            f = elapsed / (elapsed + eta) if elapsed + eta > 0 else 0.0
+            self.fraction = max(self.fraction, min(f, 0.99))
+        detail = ""
+        if self.label == "optimizing" and self.iteration is not None:
+            detail = f"outer {self.iteration}/{self.plan.iterations}"
+            if self.objective is not None:
+                detail += f", objective {self.objective:.6g}"
+        index = self.order.index(self.label) + 1 if self.label in self.order else 0
+        snap = Snapshot(stage="done" if self.finished else self.label, fraction=self.fraction, elapsed=elapsed,
+                        eta=float(eta) if math.isfinite(eta) else 0.0, detail=detail, index=index,
+                        count=len(self.order), objective=self.objective, iteration=self.iteration)
+        self._last_snapshot = snap
+        return snap
+
+
+def for_grading(pattern, settings, *, device: str | None = None, tolerance: float = 1e-3,
+                writing: bool = False, clock: Callable[[], float] = time.perf_counter) -> GradeProgress:
+    """A tracker for ``grade(pattern, ..., settings)``, its mesh size estimated from the
+    pattern."""
+    return GradeProgress(plan_grading(settings, pattern=pattern, device=device, tolerance=tolerance,
+                                      writing=writing), clock=clock)
+
+
+def status_text(snap: Snapshot) -> str:
+    """One line for a status bar: "optimizing (6/8) 42% - outer 96/256 - 0:41, about 1:02 left"."""
+    where = f"{snap.stage} ({snap.index}/{snap.count})" if snap.index else snap.stage
+    text = f"{where} {100 * snap.fraction:.0f}%"
+    if snap.detail:
+        text += f" - {snap.detail}"
+    text += f" - {format_seconds(snap.elapsed)}"
+    if snap.stage != "done":
+        text += f", about {format_seconds(snap.eta)} left"
+    return text
+
+
+@dataclass
+class ConsoleProgress:
+    """Draws a tracker's snapshots on a stream (stderr): a bar redrawn in place on a
+    terminal, plain lines elsewhere (a log file, a pipe), one per stage and per checkpoint.
+    As a progress callback it returns None: the command line does not cancel."""
+    tracker: GradeProgress
+    stream: object = field(default_factory=lambda: sys.stderr)
+    tty: Optional[bool] = None
+    width: int = 24
+    interval: float = 0.1              # a bar is redrawn at most this often
+    _drawn: float = field(default=-1e9, init=False)
+    _line: int = field(default=0, init=False)       # the bar's length on screen (0: none shown)
+    _stage: str = field(default="", init=False)
+
+    def __post_init__(self):
+        if self.tty is None:
+            isatty = getattr(self.stream, "isatty", None)
+            try:
+                self.tty = bool(isatty and isatty())
+            except (ValueError, OSError):
+                self.tty = False
+
+    def __call__(self, info: dict):
+        snap = self.tracker.observe(info)
+        self._show(snap, info)
+        return None
+
+    def enter(self, stage: str) -> None:
+        self._show(self.tracker.enter(stage), {"stage": stage})
+
+    def close(self) -> None:
+        """The job is over (done or failed): the bar gives way to the next lines."""
+        snap = self.tracker.finish() if not self.tracker.finished else self.tracker.snapshot()
+        if self.tty:
+            if self._line:
+                self._bar(snap)
+                self._write("\n")
+                self._line = 0
+        elif self._stage != "done":
+            self._write(self._plain(snap) + "\n")
+        self._stage = "done"
+
+    def fail(self) -> None:
+        """The job stopped with an error: end the bar's line, claim nothing."""
+        if self.tty and self._line:
+            self._write("\n")
+            self._line = 0
+        self._stage = "done"
+
+    def stages_line(self) -> str:
+        """Where the time went, stage by stage."""
+        parts = [f"{s} {t:.1f} s" for s, t in self.tracker.seconds_by_stage().items() if t >= 0.05]
+        return "time by stage: " + ", ".join(parts)
+
+    # -- drawing --------------------------------------------------------------
+    def _show(self, snap: Snapshot, info: dict) -> None:
+        if self.tty:
+            now = time.monotonic()
+            if snap.stage != self._stage or info.get("exact") or now - self._drawn >= self.interval:
+                self._bar(snap)
+                self._drawn = now
+        elif snap.stage != self._stage or (snap.stage == "optimizing" and info.get("exact")):
+            line = self._plain(snap)
+            if info.get("exact"):
+                line += "  (backtrack)" if info.get("backtrack") else "  (checkpoint)"
+            self._write(line + "\n")
+        self._stage = snap.stage
+
+    def _plain(self, snap: Snapshot) -> str:
+        where = f"{snap.stage} ({snap.index}/{snap.count})" if snap.index else snap.stage
+        line = f"[{snap.elapsed:7.1f}s] {100 * snap.fraction:3.0f}%  {where}"
+        if snap.detail:
+            line += f"  {snap.detail}"
+        if snap.stage != "done":
+            line += f"  about {format_seconds(snap.eta)} left"
+        return line
+
+    def _bar(self, snap: Snapshot) -> None:
+        filled = int(round(self.width * snap.fraction))
+        text = f"\r[{'#' * filled}{'.' * (self.width - filled)}] {status_text(snap)}"
+        pad = max(self._line - len(text), 0)
+        self._write(text + " " * pad)
+        self._line = len(text)
+
+    def _write(self, text: str) -> None:
+        try:
+            self.stream.write(text)
+            self.stream.flush()
+        except (ValueError, OSError):
+            pass        # a closed stream must not stop the job

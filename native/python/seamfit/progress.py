@@ -19,7 +19,7 @@ current stage plus the predicted seconds of the stages still to come.
   the number of grid nodes instead), and the search costs N outer iterations at
   ``t_iteration`` each plus one exact checkpoint every M iterations at ``t_checkpoint``,
   so its share grows with the iteration budget and with the mesh. On the GPU the
-  simulations and the search use the H100 figures of docs/gpu.md.
+  simulations and the search are scaled by what an H100 host measured.
 * Measurements replace predictions as soon as there are any: a finished stage counts
   with its real duration, a stage that overruns its prediction pushes the later ones up
   by the same factor, a drape's remaining time follows its residual's fall towards the
@@ -39,40 +39,47 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 # The stages of a grading, in order, as they are named to the user.
-STAGES = ("meshing", "body fields", "base drape", "transfer", "initial drapes", "optimizing", "refit",
-          "writing")
+STAGES = ("meshing", "body fields", "base drape", "transfer", "level scaling", "initial drapes", "optimizing",
+          "refit", "writing")
 
 # seamfit.opt's stage names (the ``stage`` of progress events and of the simulations
 # inside them) to the stages above. Unknown names are shown as they are and their time
 # counts towards the stage in progress.
 EVENT_STAGES = {
     "mesh": "meshing", "sdf": "body fields", "base drape": "base drape", "transfer": "transfer",
-    "level scaling": "initial drapes", "base pattern on target": "initial drapes",
+    "level scaling": "level scaling", "base pattern on target": "initial drapes",
     "level-scaled start": "initial drapes", "initialize": "initial drapes", "initial drape": "initial drapes",
     "optimize": "optimizing", "checkpoint": "optimizing", "fixed point": "optimizing",
     "refit": "refit", "writing": "writing",
 }
 
 # Seconds of each stage on the CPU: a * (n / 1000) ** p, n the mesh's vertices; the
-# search's outer iteration and checkpoint likewise. Measured with the sample pencil skirt
-# graded from size 6 to size 10 at 3, 2 and 1.5 cm edges (866, 1.6K and 3K vertices) on a
-# 2-core machine that was running other work too, fresh caches; "body fields" is seconds
-# per million grid nodes of the two fields (about 0.35 M nodes each at 5 mm).
+# search's outer iteration (at S = 8) and exact checkpoint likewise. Measured with the
+# sample pencil skirt graded from size 6 to size 10 at 3, 2 and 1.5 cm edges (866, 1.7K
+# and 3K vertices: 0.04, 0.16 and 0.47 s per outer iteration, about 1, 6 and 13 s per
+# checkpoint) on a 2-core machine running other work too, fresh caches; the transfer's
+# exponent from a 30K-vertex skirt's 15.6 s on a 16-core host. The level scaling depends
+# on the bodies, not the mesh (7 to 24 s here). "body fields" is seconds per million grid
+# nodes of the two fields (about 0.35 M nodes each at 5 mm; 2.9 s at 5 mm, 16 to 20 s at
+# 2.5 mm).
 _MODEL = {
     "meshing": (0.15, 1.0),
-    "base drape": (2.0, 1.6),
-    "transfer": (0.25, 1.2),
-    "initial drapes": (3.0, 1.3),
-    "refit": (0.6, 1.0),
+    "base drape": (2.2, 1.6),
+    "transfer": (0.2, 1.3),
+    "level scaling": (10.0, 0.0),
+    "initial drapes": (3.0, 1.9),
+    "refit": (0.7, 0.5),
     "writing": (1.5, 0.5),
-    "t_iteration": (0.035, 1.2),
-    "t_checkpoint": (1.2, 1.4),
+    "t_iteration": (0.053, 2.0),
+    "t_checkpoint": (1.2, 2.0),
 }
 _FIELD_SECONDS_PER_MNODE = 4.0
 _FIELD_NODES_AT_5MM = 0.35e6
-# docs/gpu.md and issue measurements on an H100: the default skirt (3K vertices) graded in
-# 2.4 s of precompute and 4.1 s for 256 iterations; simulations are that much faster there.
-_GPU_SPEEDUP = {"base drape": 4.0, "initial drapes": 4.0, "t_iteration": 3.0, "t_checkpoint": 4.0}
+# On the GPU, from a 16-core H100 host: the default skirt (3K vertices) graded in 2.4 s of
+# precompute and 4.1 s for 256 outer iterations (16 ms each, checkpoints included),
+# against about 200 s for that loop on the 2-core CPU above. Rough: measured rates take
+# over within the run.
+_GPU_SPEEDUP = {"base drape": 10.0, "initial drapes": 10.0, "t_iteration": 30.0, "t_checkpoint": 30.0}
 
 
 def estimate_vertices(pattern, edge_length_cm: float) -> int:
@@ -90,6 +97,21 @@ def _cost(name: str, n: int, device: str) -> float:
     return t / _GPU_SPEEDUP.get(name, 1.0) if device == "cuda" else t
 
 
+# The share of the search's checkpoints that backtrack (redo their M iterations): 5 of the
+# 9 checkpoints in the measurements above. Within a run it moves towards the run's own rate.
+BACKTRACK_RATE = 0.4
+
+
+def search_seconds(iterations: int, every: int, checkpoints: int, t_iteration: float, t_checkpoint: float,
+                   backtrack_rate: float) -> float:
+    """Seconds of a search with ``iterations`` outer iterations and ``checkpoints`` exact
+    checkpoints still to go, each checkpoint's stretch redone as often as backtracks are
+    expected (geometric: rate / (1 - rate) times)."""
+    rate = min(max(backtrack_rate, 0.0), 0.75)
+    redo = rate / (1 - rate) * checkpoints * (min(every, max(iterations, 1)) * t_iteration + t_checkpoint)
+    return iterations * t_iteration + checkpoints * t_checkpoint + redo
+
+
 @dataclass
 class Plan:
     """Predicted seconds of each stage and of the search's pieces."""
@@ -100,6 +122,7 @@ class Plan:
     t_checkpoint: float = 0.0
     time_budget_s: float = 0.0
     tolerance: float = 1e-3            # of the exact drapes: their residual falls towards it
+    backtrack_rate: float = BACKTRACK_RATE
 
     def checkpoints(self) -> int:
         if self.iterations <= 0:
@@ -107,7 +130,8 @@ class Plan:
         return -(-self.iterations // self.checkpoint_every)
 
     def search_seconds(self) -> float:
-        return self.iterations * self.t_iteration + self.checkpoints() * self.t_checkpoint
+        return search_seconds(self.iterations, self.checkpoint_every, self.checkpoints(), self.t_iteration,
+                              self.t_checkpoint, self.backtrack_rate)
 
     def shares(self) -> dict:
         """Each stage's predicted share of the whole job."""
@@ -133,6 +157,8 @@ def plan_grading(settings=None, n_vertices: int | None = None, *, pattern=None, 
     seconds = {"meshing": _cost("meshing", n, dev), "body fields": _FIELD_SECONDS_PER_MNODE * nodes / 1e6,
                "base drape": _cost("base drape", n, dev), "transfer": _cost("transfer", n, dev),
                "initial drapes": _cost("initial drapes", n, dev)}
+    if getattr(settings, "start", "level") == "level":
+        seconds["level scaling"] = _cost("level scaling", n, "cpu")
     method = getattr(settings, "method", "adjoint")
     iterations = int(getattr(settings, "max_outer_iterations", 256))
     every = 1 if method == "fixed-point" else max(int(getattr(settings, "checkpoint_every", 32)), 1)
@@ -141,7 +167,9 @@ def plan_grading(settings=None, n_vertices: int | None = None, *, pattern=None, 
     t_it *= max(getattr(settings, "inner_iterations", 8), 1) / 8 * 0.5 + 0.5
     plan = Plan(seconds=seconds, iterations=iterations, checkpoint_every=every, t_iteration=t_it,
                 t_checkpoint=_cost("t_checkpoint", n, dev), time_budget_s=float(getattr(settings, "time_budget_s", 0.0)),
-                tolerance=float(tolerance))
+                tolerance=float(tolerance),
+                # the fixed point has no backtracking: each iteration is one drape
+                backtrack_rate=0.0 if method == "fixed-point" else BACKTRACK_RATE)
     seconds["optimizing"] = plan.search_seconds()
     if plan.time_budget_s > 0:
         seconds["optimizing"] = min(seconds["optimizing"], plan.time_budget_s)
@@ -201,6 +229,7 @@ class GradeProgress:
         self._loop_last: Optional[float] = None
         self._it_times: list[float] = []
         self._ck_times: list[float] = []
+        self._checkpoints = self._backtracks = 0
         self._last_snapshot: Optional[Snapshot] = None
 
     # -- events ---------------------------------------------------------------
@@ -284,9 +313,10 @@ class GradeProgress:
         last = self._loop_last if self._loop_last is not None else self.stage_start
         dt = max(now - last, 0.0)
         if info.get("exact"):
-            # A checkpoint's interval holds one outer iteration too (not a backtrack's).
-            t_it = self._t_iteration()
-            self._ck_times.append(max(dt - (0.0 if info.get("backtrack") else t_it), 0.0))
+            # A checkpoint's interval holds its outer iteration too.
+            self._ck_times.append(max(dt - self._t_iteration(), 0.0))
+            self._checkpoints += 1
+            self._backtracks += bool(info.get("backtrack"))
         elif self._loop_last is not None:
             self._it_times.append(dt)
         self._loop_last = now
@@ -320,12 +350,16 @@ class GradeProgress:
         plan = self.plan
         k = self.iteration or 0
         n, m = plan.iterations, plan.checkpoint_every
-        checkpoints_left = (-(-n // m) - k // m) if n > 0 else 0
-        left = max(n - k, 0) * self._t_iteration() + max(checkpoints_left, 0) * self._t_checkpoint()
-        if self._loop_last is not None:
-            left -= now - self._loop_last    # the piece under way is partly done
-        else:
-            left = plan.search_seconds() * factor - (now - self.stage_start)
+        t_it, t_ck = self._t_iteration(), self._t_checkpoint()
+        checkpoints_left = max(-(-n // m) - k // m, 0) if n > 0 else 0
+        # The run's own backtracks count as much as two checkpoints' worth of the prior.
+        rate = (self._backtracks + 2 * plan.backtrack_rate) / (self._checkpoints + 2)
+        left = search_seconds(max(n - k, 0), m, checkpoints_left, t_it, t_ck, rate)
+        # The piece under way (an outer iteration, with an exact drape where a checkpoint
+        # is due) is partly done; one that overran is taken to be a quarter further on.
+        since = now - (self._loop_last if self._loop_last is not None else self.stage_start)
+        expected = t_it + (t_ck if (k + 1) % m == 0 or k + 1 >= n else 0.0)
+        left += max(expected - since, 0.25 * since) - expected
         if plan.time_budget_s > 0:
             budget_left = plan.time_budget_s - (now - self.t0) + self._t_checkpoint()
             left = min(left, max(budget_left, 0.0))

@@ -248,3 +248,24 @@ def test_the_addons_job_shows_the_same_progress_and_cancels(events):
 def test_clock_format():
     assert format_seconds(5.25) == "5.2s" and format_seconds(42) == "42s"
     assert format_seconds(65) == "1:05" and format_seconds(3725) == "1:02:05"
+
+
+@pytest.mark.parametrize("tty", [True, False])
+def test_drape_shows_the_same_progress(tmp_path, monkeypatch, tty):
+    """seamfit drape: meshing, body fields, drape (iteration and residual), writing; a bar on a
+    terminal, plain lines in a log; its notes on lines of their own."""
+    stream = _Stream(tty)
+    monkeypatch.setattr(sys, "stderr", stream)
+    code = main(["drape", str(PATTERN), str(B0), "--out", str(tmp_path / "d"), "--edge-length", "5",
+                 "--sdf-spacing", "0.01", "--max-iterations", "2000", "--no-picture", "--no-coarse-start"])
+    err = stream.getvalue()
+    assert code == 0
+    for stage in ("meshing (1/4)", "body fields (2/4)", "drape (3/4)", "writing (4/4)", "iteration"):
+        assert stage in err, stage
+    assert ("\r[" in err) is tty
+    lines = err.replace("\r", "\n").splitlines()
+    assert any(line.startswith("mesh: ") for line in lines) and any(line.startswith("body SDF: ") for line in lines)
+    assert any(line.startswith(("converged", "NOT converged")) for line in lines)
+    if not tty:
+        percents = [int(line.split("]")[1].split("%")[0]) for line in lines if line.startswith("[")]
+        assert percents == sorted(percents) and percents[-1] == 100

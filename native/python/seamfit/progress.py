@@ -33,6 +33,7 @@ current stage plus the predicted seconds of the stages still to come.
 from __future__ import annotations
 
 import math
+import shutil
 import sys
 import time
 from dataclasses import dataclass, field
@@ -42,6 +43,9 @@ from typing import Callable, Optional
 STAGES = ("meshing", "body fields", "base drape", "transfer", "level scaling", "initial drapes", "optimizing",
           "refit", "writing")
 
+# The stages of ``seamfit drape``.
+DRAPE_STAGES = ("meshing", "body fields", "drape", "writing")
+
 # seamfit.opt's stage names (the ``stage`` of progress events and of the simulations
 # inside them) to the stages above. Unknown names are shown as they are and their time
 # counts towards the stage in progress.
@@ -50,7 +54,7 @@ EVENT_STAGES = {
     "level scaling": "level scaling", "base pattern on target": "initial drapes",
     "level-scaled start": "initial drapes", "initialize": "initial drapes", "initial drape": "initial drapes",
     "optimize": "optimizing", "checkpoint": "optimizing", "fixed point": "optimizing",
-    "refit": "refit", "writing": "writing",
+    "refit": "refit", "writing": "writing", "drape": "drape",
 }
 
 # Seconds of each stage on the CPU: a * (n / 1000) ** p, n the mesh's vertices; the
@@ -69,7 +73,7 @@ _MODEL = {
     "level scaling": (10.0, 0.0),
     "initial drapes": (3.0, 1.9),
     "refit": (0.7, 0.5),
-    "writing": (1.5, 0.5),
+    "writing": (0.1, 0.5),
     "t_iteration": (0.053, 2.0),
     "t_checkpoint": (1.2, 2.0),
 }
@@ -89,6 +93,11 @@ def estimate_vertices(pattern, edge_length_cm: float) -> int:
     area = sum(abs(p.signed_area_cm2()) for p in getattr(pattern, "panels", []))
     h = max(float(edge_length_cm), 1e-3)
     return max(int(1.15 * area / (math.sqrt(3) / 4 * h * h) / 2), 10)
+
+
+def _writing(n: int, pictures: int) -> float:
+    """The command line's files, and each picture at about a second (matplotlib)."""
+    return _cost("writing", n, "cpu") + 1.0 * pictures
 
 
 def _cost(name: str, n: int, device: str) -> float:
@@ -123,6 +132,8 @@ class Plan:
     time_budget_s: float = 0.0
     tolerance: float = 1e-3            # of the exact drapes: their residual falls towards it
     backtrack_rate: float = BACKTRACK_RATE
+    order: tuple = STAGES
+    residual_stages: tuple = ("base drape",)    # stages that are one drape (their residual tells)
 
     def checkpoints(self) -> int:
         if self.iterations <= 0:
@@ -140,10 +151,10 @@ class Plan:
 
 
 def plan_grading(settings=None, n_vertices: int | None = None, *, pattern=None, device: str | None = None,
-                 tolerance: float = 1e-3, writing: bool = False) -> Plan:
+                 tolerance: float = 1e-3, writing: bool = False, pictures: int = 0) -> Plan:
     """The predicted stages of ``seamfit.opt.grade.grade`` with ``settings`` (GradeSettings)
     on a mesh of ``n_vertices`` (or as estimated from ``pattern``). ``writing``: the
-    command line's own last stage (files and pictures)."""
+    command line's own last stage (its files and ``pictures`` pictures)."""
     if settings is None:
         from .opt.grade import GradeSettings
         settings = GradeSettings()
@@ -175,7 +186,7 @@ def plan_grading(settings=None, n_vertices: int | None = None, *, pattern=None, 
         seconds["optimizing"] = min(seconds["optimizing"], plan.time_budget_s)
     seconds["refit"] = _cost("refit", n, dev)
     if writing:
-        seconds["writing"] = _cost("writing", n, "cpu")
+        seconds["writing"] = _writing(n, pictures)
     return plan
 
 
@@ -212,7 +223,7 @@ class GradeProgress:
     def __init__(self, plan: Plan, clock: Callable[[], float] = time.perf_counter):
         self.plan = plan
         self.clock = clock
-        self.order = [s for s in STAGES if s in plan.seconds]
+        self.order = [s for s in plan.order if s in plan.seconds]
         self.t0 = clock()
         self.current = -1                  # index into self.order; -1 before the first event
         self.stage_start = self.t0
@@ -223,6 +234,7 @@ class GradeProgress:
         self._p = 0.0                      # the current stage's own progress, from its residuals
         self._r0: Optional[float] = None
         self._sim_stage: Optional[str] = None
+        self._sim: Optional[tuple] = None          # the last simulation iteration and residual
         self.iteration: Optional[int] = None
         self.objective: Optional[float] = None
         # The search: when it started, its last event, and the measured pieces.
@@ -242,7 +254,7 @@ class GradeProgress:
             self._enter(stage, now)
         self.label = stage or raw or self.label
         if "sim_iteration" in info:
-            self._residual(raw, info.get("residual"))
+            self._residual(raw, info.get("residual"), info.get("sim_iteration"))
         elif stage == "optimizing" and info.get("iteration") is not None:
             self._search(info, now)
         return self.snapshot(now)
@@ -289,12 +301,13 @@ class GradeProgress:
             self.actual[s] = self.actual.get(s, 0.0) + now - self.stage_start
             self.stage_start = now
 
-    def _residual(self, raw: str, r) -> None:
+    def _residual(self, raw: str, r, it=None) -> None:
         """A drape's progress: how far its residual fell from its first value towards the
         tolerance, on a log scale (only for a stage that is one drape: the base drape)."""
+        self._sim = (it, r) if it is not None and r is not None else None
         if raw != self._sim_stage:
             self._sim_stage, self._r0 = raw, None
-        if raw != "base drape" or r is None:
+        if raw not in self.plan.residual_stages or r is None:
             return
         r = float(r)
         tol = self.plan.tolerance
@@ -404,11 +417,13 @@ class GradeProgress:
             f = elapsed / (elapsed + eta) if elapsed + eta > 0 else 0.0
             self.fraction = max(self.fraction, min(f, 0.99))
         detail = ""
+        if self._sim_stage in self.plan.residual_stages and self.label == self._sim_stage and self._sim is not None:
+            detail = f"iteration {self._sim[0]}, relative residual {self._sim[1]:.3e}"
         if self.label == "optimizing" and self.iteration is not None:
             detail = f"outer {self.iteration}/{self.plan.iterations}"
             if self.objective is not None:
                 detail += f", objective {self.objective:.6g}"
-        index = self.order.index(self.label) + 1 if self.label in self.order else 0
+        index = self.order.index(self.label) + 1 if self.label in self.order and not self.finished else 0
         snap = Snapshot(stage="done" if self.finished else self.label, fraction=self.fraction, elapsed=elapsed,
                         eta=float(eta) if math.isfinite(eta) else 0.0, detail=detail, index=index,
                         count=len(self.order), objective=self.objective, iteration=self.iteration)
@@ -417,30 +432,43 @@ class GradeProgress:
 
 
 def for_grading(pattern, settings, *, device: str | None = None, tolerance: float = 1e-3,
-                writing: bool = False, clock: Callable[[], float] = time.perf_counter) -> GradeProgress:
+                writing: bool = False, pictures: int = 0,
+                clock: Callable[[], float] = time.perf_counter) -> GradeProgress:
     """A tracker for ``grade(pattern, ..., settings)``, its mesh size estimated from the
     pattern."""
     return GradeProgress(plan_grading(settings, pattern=pattern, device=device, tolerance=tolerance,
-                                      writing=writing), clock=clock)
+                                      writing=writing, pictures=pictures), clock=clock)
+
+
+def for_drape(pattern, edge_length_cm: float, sdf_spacing: float, *, device: str = "cpu", tolerance: float = 1e-3,
+              pictures: int = 1, clock: Callable[[], float] = time.perf_counter) -> GradeProgress:
+    """A tracker for ``seamfit drape``: meshing, the body's field, the drape (followed by its
+    residual), writing; the same model as a grading's base drape."""
+    n = estimate_vertices(pattern, edge_length_cm)
+    dev = "cuda" if device == "cuda" else "cpu"
+    nodes = _FIELD_NODES_AT_5MM * (0.005 / max(float(sdf_spacing), 1e-4)) ** 3
+    seconds = {"meshing": _cost("meshing", n, dev), "body fields": _FIELD_SECONDS_PER_MNODE * nodes / 1e6,
+               "drape": _cost("base drape", n, dev), "writing": _writing(n, pictures)}
+    plan = Plan(seconds=seconds, tolerance=float(tolerance), order=DRAPE_STAGES, residual_stages=("drape",))
+    return GradeProgress(plan, clock=clock)
 
 
 def status_text(snap: Snapshot) -> str:
-    """One line for a status bar: "optimizing (6/8) 42% - outer 96/256 - 0:41, about 1:02 left"."""
+    """One line for a status bar: "optimizing (7/9) 42% - 0:41, about 1:02 left - outer 96/256"."""
     where = f"{snap.stage} ({snap.index}/{snap.count})" if snap.index else snap.stage
-    text = f"{where} {100 * snap.fraction:.0f}%"
-    if snap.detail:
-        text += f" - {snap.detail}"
-    text += f" - {format_seconds(snap.elapsed)}"
+    text = f"{where} {100 * snap.fraction:.0f}% - {format_seconds(snap.elapsed)}"
     if snap.stage != "done":
         text += f", about {format_seconds(snap.eta)} left"
+    if snap.detail:      # last: what a narrow terminal cuts off
+        text += f" - {snap.detail}"
     return text
 
 
 @dataclass
 class ConsoleProgress:
     """Draws a tracker's snapshots on a stream (stderr): a bar redrawn in place on a
-    terminal, plain lines elsewhere (a log file, a pipe), one per stage and per checkpoint.
-    As a progress callback it returns None: the command line does not cancel."""
+    terminal, plain lines elsewhere (a log file, a pipe), one per stage, per checkpoint and
+    per event marked ``log``. As a progress callback it returns None: the command line does not cancel."""
     tracker: GradeProgress
     stream: object = field(default_factory=lambda: sys.stderr)
     tty: Optional[bool] = None
@@ -465,6 +493,16 @@ class ConsoleProgress:
 
     def enter(self, stage: str) -> None:
         self._show(self.tracker.enter(stage), {"stage": stage})
+
+    def print(self, message: str) -> None:
+        """A line of its own (a note, a warning) while the bar is up: the bar is cleared,
+        the line written and the bar drawn again below it."""
+        if self.tty and self._line:
+            self._write("\r" + " " * self._line + "\r" + message + "\n")
+            self._line = 0
+            self._bar(self.tracker.snapshot())
+        else:
+            self._write(message + "\n")
 
     def close(self) -> None:
         """The job is over (done or failed): the bar gives way to the next lines."""
@@ -497,7 +535,7 @@ class ConsoleProgress:
             if snap.stage != self._stage or info.get("exact") or now - self._drawn >= self.interval:
                 self._bar(snap)
                 self._drawn = now
-        elif snap.stage != self._stage or (snap.stage == "optimizing" and info.get("exact")):
+        elif snap.stage != self._stage or (snap.stage == "optimizing" and info.get("exact")) or info.get("log"):
             line = self._plain(snap)
             if info.get("exact"):
                 line += "  (backtrack)" if info.get("backtrack") else "  (checkpoint)"
@@ -515,7 +553,9 @@ class ConsoleProgress:
 
     def _bar(self, snap: Snapshot) -> None:
         filled = int(round(self.width * snap.fraction))
-        text = f"\r[{'#' * filled}{'.' * (self.width - filled)}] {status_text(snap)}"
+        # No wider than the terminal: a wrapped line could not be redrawn in place.
+        columns = shutil.get_terminal_size((100, 24)).columns
+        text = f"\r[{'#' * filled}{'.' * (self.width - filled)}] {status_text(snap)}"[:max(columns, 20)]
         pad = max(self._line - len(text), 0)
         self._write(text + " " * pad)
         self._line = len(text)

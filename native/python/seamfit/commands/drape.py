@@ -110,11 +110,22 @@ def run(args) -> int:
     # the checks of seamfit validate and the size limits, before any meshing or SDF
     pattern = checked_pattern(args.pattern, args.edge_length, warn)
     body = checked_body(args.body, warn)
-    with OutputSet(out, inputs=[args.pattern, args.body], force=args.force) as tmp:
-        return _drape(args, pattern, body, tmp, out, t0)
+    # Named stages, the share done and the time left: a bar on a terminal, plain lines in
+    # a log (seamfit.progress); -q: none.
+    from ..progress import ConsoleProgress, for_drape
+    console = None if args.quiet else ConsoleProgress(for_drape(
+        pattern, args.edge_length, args.sdf_spacing, device=args.device, tolerance=args.tolerance,
+        pictures=0 if args.no_picture else 1))
+    try:
+        with OutputSet(out, inputs=[args.pattern, args.body], force=args.force) as tmp:
+            return _drape(args, pattern, body, tmp, out, t0, console)
+    except BaseException:
+        if console is not None:
+            console.fail()      # the error's line starts on a line of its own
+        raise
 
 
-def _drape(args, pattern, body, tmp: Path, out: Path, t0: float) -> int:
+def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -> int:
     """Mesh, dress and settle; write the set into ``tmp`` (moved to ``out`` afterwards)."""
     from ..body import build_sdf
     from ..device import resolve_device
@@ -125,12 +136,18 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float) -> int:
     from ..sim.multilevel import drape_coarse_to_fine
 
     def say(msg: str) -> None:
-        if not args.quiet:
-            print(msg, file=sys.stderr, flush=True)
+        if console is not None:
+            console.print(msg)
 
+    def stage(name: str) -> None:
+        if console is not None:
+            console.enter(name)
+
+    stage("meshing")
     mesh = build_sewn_mesh(pattern, args.edge_length)
     say(f"mesh: {mesh.n_vertices} vertices, {len(mesh.triangles)} triangles, "
         f"{len(mesh.sewing_pairs)} sewing pairs")
+    stage("body fields")
     sdf = build_sdf(body, spacing=args.sdf_spacing)
     say(f"body SDF: {'x'.join(str(d) for d in sdf.values.shape[::-1])} nodes at {sdf.spacing * 1000:g} mm")
     fabric = Fabric(stretch_stiffness=args.stretch_stiffness, sewing_stiffness=args.sewing_stiffness,
@@ -153,14 +170,17 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float) -> int:
     every = max(settings.progress_every, 1000 if args.method == "chebyshev" else 1)
 
     def progress(it, res):
-        if it % every == 0:
-            say(f"iteration {it:6d}  relative residual {res:.3e}")
+        if console is not None:
+            console({"stage": "drape", "sim_iteration": it, "residual": res, "log": it % every == 0})
         return True
+
+    stage("drape")
 
     if args.no_coarse_start:
         result = sim.drape(x0, progress=progress)
     else:
         result = drape_coarse_to_fine(sim, pattern, mode=args.dress, progress=progress)
+    stage("writing")
     obj = write_obj(tmp / "garment.obj", mesh, positions=result.x)
     report = {
         "pattern": str(args.pattern),
@@ -196,6 +216,8 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float) -> int:
         if report["pictures"]["drape.png"]["written"]:
             report["files"]["picture"] = "drape.png"
     atomic_write_text(tmp / "report.json", json.dumps(report, indent=1) + "\n")
+    if console is not None:
+        console.close()
     say(f"{'converged' if result.converged else 'NOT converged'}: {result.iterations} iterations, "
         f"{result.seconds:.1f} s, residual {result.residual:.2e}, max seam gap {result.max_sewing_gap_mm:.2f} mm, "
         f"min phi {result.min_phi_mm:.2f} mm -> {out}")

@@ -160,7 +160,8 @@ def run(args) -> int:
     # Named stages, the share done and the time left: a bar on a terminal, plain lines in
     # a log (seamfit.progress); -q: none.
     from ..progress import ConsoleProgress, for_grading
-    progress = None if args.quiet else ConsoleProgress(for_grading(base_pattern, settings, writing=True))
+    progress = None if args.quiet else ConsoleProgress(for_grading(
+        base_pattern, settings, writing=True, pictures=0 if args.no_picture else len(PICTURES)))
 
     inputs = [args.pattern, args.base_body, args.target_body, args.truth]
     try:

@@ -343,21 +343,44 @@ def _simulator(mesh, sdf, sim_cfg: dict, device: str):
     return seamfit_module("sim").Simulator(mesh, sdf, fabric, settings), settings
 
 
-def base_drape(inp: RunInputs, job, span=(0.1, 0.9)):
+def _drape_progress(job, tracker):
+    """(stage(name), callback(iteration, residual) -> bool) reporting seamfit.progress's
+    stages, share and time left for a drape on the job's bar, as `seamfit drape` shows them."""
+    def show(info: dict, **extra) -> None:
+        snap = tracker.observe(info)
+        job.update(stage=snap.stage, fraction=snap.fraction, eta=snap.eta, **extra)
+
+    def callback(iteration: int, residual: float) -> bool:
+        # Called from inside seamfit's solvers: answer False to stop, never raise.
+        try:
+            show({"stage": "drape", "sim_iteration": iteration, "residual": residual},
+                 objective=residual, iteration=iteration)
+        except Cancelled:
+            return False
+        return not job.cancelled
+    return (lambda name: show({"stage": name})), callback
+
+
+def base_drape(inp: RunInputs, job):
     """The base garment draped on the base body (cached): (mesh, DrapeResult, mesh_key)."""
-    job.update(stage="meshing the pattern", fraction=0.01)
+    spacing = inp.sim.get("sdf_spacing_m", 0.0025)
+    tracker = seamfit_module("progress").for_drape(pattern_from_json(inp.pattern_json), float(inp.edge_length_cm),
+                                                   float(spacing), device=inp.device, pictures=0)
+    stage, callback = _drape_progress(job, tracker)
+    stage("meshing")
     mesh, mesh_key = sewn_mesh(inp.pattern_json, inp.edge_length_cm)
-    job.update(stage="base body distance field", fraction=0.04)
-    sdf = body_sdf(inp.base, {"spacing": inp.sim.get("sdf_spacing_m", 0.0025)})
+    stage("body fields")
+    sdf = body_sdf(inp.base, {"spacing": spacing})
     key = digest(mesh_key, inp.base.key, inp.sim, inp.device)
+    stage("drape")
 
     def make():
         simulator, settings = _simulator(mesh, sdf, inp.sim, inp.device)
+        tracker.plan.tolerance = float(settings.tolerance)
         # As `seamfit drape` does: hint placements are wrapped around the body first, and
         # a settle that stagnates restarts from a drape of a coarser mesh.
         res = seamfit_module("sim.multilevel").drape_coarse_to_fine(
-            simulator, pattern_from_json(inp.pattern_json), mode="auto",
-            progress=job.callback("draping on the base body", span=span, target=float(settings.tolerance)))
+            simulator, pattern_from_json(inp.pattern_json), mode="auto", progress=callback)
         job.check()     # a cancelled drape is never cached
         if getattr(res, "cancelled", False):
             raise Cancelled()
@@ -367,7 +390,7 @@ def base_drape(inp: RunInputs, job, span=(0.1, 0.9)):
 
 def run_drape(inp: RunInputs, job) -> DrapeOutput:
     mesh, res, _ = base_drape(inp, job)
-    job.update(stage="measuring the fit", fraction=0.95)
+    job.update(stage="measuring the fit")
     g = garment(mesh, res.x)
     return DrapeOutput(inp.pattern_json, g, bool(res.converged), float(res.residual),
                        int(res.iterations), float(res.seconds), str(res.message), _fit_or_none(inp.base, g))

@@ -269,3 +269,27 @@ def test_drape_shows_the_same_progress(tmp_path, monkeypatch, tty):
     if not tty:
         percents = [int(line.split("]")[1].split("%")[0]) for line in lines if line.startswith("[")]
         assert percents == sorted(percents) and percents[-1] == 100
+
+
+def test_the_addons_drape_job_shows_stages_and_time_left_and_cancels():
+    from seamfit.pattern import load_pattern
+    from seamfit.progress import for_drape
+    jobs, compute = _addon_without_bpy()
+    job = jobs.Job("drape", lambda j: None)
+    clock = Clock()
+    stage, callback = compute._drape_progress(job, for_drape(load_pattern(PATTERN), 3.0, 0.005, clock=clock))
+    seen = []
+    for name in ("meshing", "body fields", "drape"):
+        clock.t += 0.5
+        stage(name)
+        seen.append(job.snapshot())
+    for it, res in enumerate([1e3, 10.0, 1.0, 0.1, 0.01]):
+        clock.t += 0.5
+        assert callback(100 * it, res) is True
+        seen.append(job.snapshot())
+    assert [s["stage"] for s in seen[:3]] == ["meshing", "body fields", "drape"]
+    fractions = [s["fraction"] for s in seen]
+    assert fractions == sorted(fractions) and all(s["eta"] is not None and math.isfinite(s["eta"]) for s in seen)
+    assert job.objective == 0.01 and len(job.history) == 5
+    job.cancel()
+    assert callback(600, 0.005) is False

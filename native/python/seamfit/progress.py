@@ -174,11 +174,12 @@ def plan_grading(settings=None, n_vertices: int | None = None, *, pattern=None, 
     iterations = int(getattr(settings, "max_outer_iterations", 256))
     every = 1 if method == "fixed-point" else max(int(getattr(settings, "checkpoint_every", 32)), 1)
     t_it = 0.0 if method == "fixed-point" else _cost("t_iteration", n, dev)
-    # S simulation iterations per outer iteration: the model's were measured at S = 8.
+    # The model's outer iterations were measured at S = 8 simulation iterations each; half
+    # of their time is taken to scale with S (the rest is the gradient).
     t_it *= max(getattr(settings, "inner_iterations", 8), 1) / 8 * 0.5 + 0.5
     plan = Plan(seconds=seconds, iterations=iterations, checkpoint_every=every, t_iteration=t_it,
-                t_checkpoint=_cost("t_checkpoint", n, dev), time_budget_s=float(getattr(settings, "time_budget_s", 0.0)),
-                tolerance=float(tolerance),
+                t_checkpoint=_cost("t_checkpoint", n, dev),
+                time_budget_s=float(getattr(settings, "time_budget_s", 0.0)), tolerance=float(tolerance),
                 # the fixed point has no backtracking: each iteration is one drape
                 backtrack_rate=0.0 if method == "fixed-point" else BACKTRACK_RATE)
     seconds["optimizing"] = plan.search_seconds()

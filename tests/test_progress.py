@@ -293,3 +293,18 @@ def test_the_addons_drape_job_shows_stages_and_time_left_and_cancels():
     assert job.objective == 0.01 and len(job.history) == 5
     job.cancel()
     assert callback(600, 0.005) is False
+
+
+def test_other_writers_to_stderr_clear_the_bar_first(monkeypatch):
+    from seamfit.opt.grade import GradeSettings
+    stream = _Stream(True)
+    monkeypatch.setattr(sys, "stderr", stream)
+    console = ConsoleProgress(GradeProgress(plan_grading(GradeSettings(), n_vertices=1000), clock=Clock()))
+    console({"stage": "mesh"})
+    assert stream.getvalue().startswith("\r[") and sys.stderr is not stream
+    print("seamfit: warning: something", file=sys.stderr)
+    head, warning = stream.getvalue().rsplit("\r", 1)
+    assert warning == "seamfit: warning: something\n" and head.endswith(" ")
+    console({"stage": "sdf"})
+    console.close()
+    assert sys.stderr is stream and stream.getvalue().endswith("\n")

@@ -486,6 +486,10 @@ class ConsoleProgress:
                 self.tty = bool(isatty and isatty())
             except (ValueError, OSError):
                 self.tty = False
+        if self.tty and self.stream is sys.stderr:
+            # Warnings written to stderr while the bar is up (a discarded cache entry, a
+            # picture not drawn) clear it first instead of running on after it.
+            sys.stderr = _ClearingStream(self, self.stream)
 
     def __call__(self, info: dict):
         snap = self.tracker.observe(info)
@@ -499,8 +503,8 @@ class ConsoleProgress:
         """A line of its own (a note, a warning) while the bar is up: the bar is cleared,
         the line written and the bar drawn again below it."""
         if self.tty and self._line:
-            self._write("\r" + " " * self._line + "\r" + message + "\n")
-            self._line = 0
+            self._clear()
+            self._write(message + "\n")
             self._bar(self.tracker.snapshot())
         else:
             self._write(message + "\n")
@@ -516,6 +520,7 @@ class ConsoleProgress:
         elif self._stage != "done":
             self._write(self._plain(snap) + "\n")
         self._stage = "done"
+        self._release()
 
     def fail(self) -> None:
         """The job stopped with an error: end the bar's line, claim nothing."""
@@ -523,6 +528,17 @@ class ConsoleProgress:
             self._write("\n")
             self._line = 0
         self._stage = "done"
+        self._release()
+
+    def _release(self) -> None:
+        if isinstance(sys.stderr, _ClearingStream) and sys.stderr.console is self:
+            sys.stderr = sys.stderr.stream
+
+    def _clear(self) -> None:
+        if self._line:
+            self._write("\r" + " " * self._line + "\r")
+            self._line = 0
+            self._drawn = -1e9      # drawn again at the next event
 
     def stages_line(self) -> str:
         """Where the time went, stage by stage."""
@@ -567,3 +583,20 @@ class ConsoleProgress:
             self.stream.flush()
         except (ValueError, OSError):
             pass        # a closed stream must not stop the job
+
+
+class _ClearingStream:
+    """Stands in for sys.stderr while a bar is up: anything else written there first clears
+    the bar's line."""
+
+    def __init__(self, console: ConsoleProgress, stream):
+        self.console = console
+        self.stream = stream
+
+    def write(self, text: str):
+        if text:
+            self.console._clear()
+        return self.stream.write(text)
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)

@@ -243,7 +243,6 @@ class GradeProgress:
         self._it_times: list[float] = []
         self._ck_times: list[float] = []
         self._checkpoints = self._backtracks = 0
-        self._last_snapshot: Optional[Snapshot] = None
 
     # -- events ---------------------------------------------------------------
     def observe(self, info: dict) -> Snapshot:
@@ -428,7 +427,6 @@ class GradeProgress:
         snap = Snapshot(stage="done" if self.finished else self.label, fraction=self.fraction, elapsed=elapsed,
                         eta=float(eta) if math.isfinite(eta) else 0.0, detail=detail, index=index,
                         count=len(self.order), objective=self.objective, iteration=self.iteration)
-        self._last_snapshot = snap
         return snap
 
 

@@ -12,11 +12,12 @@ a target stretch:
   grew between the bodies. Additive, as ease is: a circle skirt's hem grows by the waist's
   change, not in proportion to it;
 * across that direction, by sy(z), the slope at z of the piecewise linear map that takes
-  the base body's levels (soles, crotch, hip, waist, bust, armpit, crown) to the target's.
+  the base body's levels (soles, crotch, waist, armpit, crown) to where the same body
+  sections are on the target.
 
-Where the garment hangs free of the body (a skirt below the seat, a flare) the enclosed
-girth is the one it hangs from: dH comes from the nearest level above where the garment
-touches the body. The pattern whose triangle gradients best match those stretches (a
+dH is measured where most of the garment's girth rests on the body; between two such
+levels it is interpolated, and where the garment hangs free (a skirt below the seat, a
+flare below the waist) it is the growth of the level it hangs from. The pattern whose triangle gradients best match those stretches (a
 sparse least-squares solve per panel, the same kind of solve as a Poisson problem) is the
 level-scaled pattern. Equal bodies give the base pattern back exactly.
 """
@@ -35,27 +36,59 @@ from .fit import mesh_cross_section
 # contact barrier, about 1-3 mm out; hanging cloth is centimetres away).
 CONTACT_M = 0.005
 LEVEL_STEP_M = 0.01     # girth profile sampling
+# A level is supported by the body when at least this share of the garment's vertices
+# there touch it: most of its girth rests on the body.
+SUPPORT_FRACTION = 0.5
 
 
-def level_map(base_body, target_body) -> tuple[np.ndarray, np.ndarray]:
+def level_map(base_body, target_body, *, crotch: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Knots (z_base, z_target) of the monotone piecewise linear map between the two
-    bodies' levels: soles, waist, armpit, crown."""
-    def knots(body):
-        m = body_measurements(body)
-        lv = m["levels_z_m"]
-        z0 = float(body.vertices[:, 2].min())
-        z1 = float(body.vertices[:, 2].max())
-        # The hip and the bust are fullest-girth levels, which wander by centimetres
-        # between bodies of similar shape; the crotch, the waist and the armpit are
-        # where the body's outline changes, and hold.
-        return [z0, lv["waist"], lv["armpit"], z1]
-    zb, zt = np.array(knots(base_body)), np.array(knots(target_body))
+    bodies' levels: soles, crotch (unless ``crotch`` is False), waist, armpit, crown.
+
+    The levels are found on the base body only. Each one's height on the target is where
+    the same body section went: the mean height of the base section's edge crossings
+    placed on the target's vertices (both bodies share one mesh topology). A level found
+    on each body by its own rule can land elsewhere on the body: the narrowest girth, taken
+    for the waist, sits under the bust of a body with a full belly."""
+    levels = body_measurements(base_body)["levels_z_m"]
+    s0 = _Slicer(base_body)
+    tv = np.asarray(target_body.vertices, dtype=float)
+    zb = [float(base_body.vertices[:, 2].min())]
+    zt = [float(tv[:, 2].min())]
+    for name in (["crotch"] if crotch else []) + ["waist", "armpit"]:
+        a, b, t, _ = s0.cut(levels[name])
+        if len(a) < 3:
+            continue
+        zb.append(float(levels[name]))
+        zt.append(float(np.mean(tv[a, 2] + t * (tv[b, 2] - tv[a, 2]))))
+    zb.append(float(base_body.vertices[:, 2].max()))
+    zt.append(float(tv[:, 2].max()))
+    zb, zt = np.array(zb), np.array(zt)
     # Keep only knots that rise on both bodies, so the map stays monotone.
     keep = [0]
     for k in range(1, len(zb)):
         if zb[k] > zb[keep[-1]] + 1e-3 and zt[k] > zt[keep[-1]] + 1e-3:
             keep.append(k)
     return zb[keep], zt[keep]
+
+
+def passes_crotch_as_one_tube(mesh, xbar, base_body) -> bool:
+    """Whether the garment hangs past the crotch closed around both legs (a skirt, a
+    dress): its length then follows the waist, not the crotch it never meets; trousers
+    fork at the crotch and a top ends above it."""
+    crotch_z = float(body_measurements(base_body)["levels_z_m"]["crotch"])
+    bottom = float(np.min(xbar[:, 2]))
+    if bottom > crotch_z - 2 * LEVEL_STEP_M:
+        return False
+    # Halfway down from the crotch, trouser legs stand apart even on full thighs.
+    z = 0.5 * (crotch_z + bottom)
+    pts = mesh_cross_section(xbar, np.asarray(mesh.triangles), z)
+    return bool(len(pts)) and _crosses_midline(pts, _Slicer(base_body), mesh)
+
+
+def _crosses_midline(pts, slicer, mesh) -> bool:
+    window = max(0.02, 0.01 * float(mesh.edge_length_cm))
+    return bool(np.any(np.abs(pts[:, 0] - float(slicer.axis[0])) < window))
 
 
 def _hull(points):
@@ -97,8 +130,8 @@ def _enclosed_growth(slicer: _Slicer, target_v: np.ndarray, z: float, garment_pt
 
 def girth_profile(mesh, xbar, base_body, target_body, base_sdf) -> dict:
     """Per level z of the base garment: G (garment girth), dH (growth of the enclosed body
-    girth, carried down from the nearest supported level above where the garment hangs)
-    and sx = 1 + dH / G."""
+    girth where the body supports the garment, interpolated between such levels and taken
+    from the nearest one where the garment hangs) and sx = 1 + dH / G."""
     tri = np.asarray(mesh.triangles)
     s0 = _Slicer(base_body)
     tv = np.asarray(target_body.vertices, dtype=float)
@@ -107,35 +140,33 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf) -> dict:
     if len(zs) == 0:
         zs = np.array([0.5 * (zmin + zmax)])
     phi = sample_sdf(base_sdf, xbar)[0]
-    touching = xbar[phi < CONTACT_M, 2]
     G = np.full(len(zs), np.nan)
     dH = np.full(len(zs), np.nan)
     for k, z in enumerate(zs):
         g0, h0, h1 = _enclosed_growth(s0, tv, z, mesh_cross_section(xbar, tri, z))
         G[k] = g0
-        if np.any(np.abs(touching - z) < LEVEL_STEP_M) and np.isfinite(h1):
+        # The body sets a level's girth where most of the garment's section rests on it;
+        # where a few points graze it (a flare touching the seat) the garment hangs.
+        band = np.abs(xbar[:, 2] - z) < LEVEL_STEP_M
+        if band.any() and np.mean(phi[band] < CONTACT_M) >= SUPPORT_FRACTION and np.isfinite(h1):
             dH[k] = h1 - h0
-    # Below the hip a garment that closes around both legs (its section crosses the
+    # Below a supported hip, a garment closed around both legs (its section crosses the
     # body's midline between them: a skirt, a dress) hangs from the hip, as a straight
-    # skirt's hem is drafted as wide as its hip; trouser legs follow their own level.
+    # skirt's hem is drafted from the hip; trouser legs follow their own levels.
     hip_z = float(body_measurements(base_body)["levels_z_m"]["hip"])
     k_hip = int(np.argmin(np.abs(zs - hip_z)))
     if np.isfinite(dH[k_hip]):
-        midline_x = float(s0.axis[0])
-        window = max(0.02, 0.01 * float(mesh.edge_length_cm))
         for k in range(k_hip):
             pts = mesh_cross_section(xbar, tri, zs[k])
-            if len(pts) and np.any(np.abs(pts[:, 0] - midline_x) < window):
-                dH[k] = dH[k_hip] if not np.isfinite(dH[k]) else max(dH[k], dH[k_hip])
+            if len(pts) and _crosses_midline(pts, s0, mesh):
+                dH[k] = dH[k_hip]
     known = np.flatnonzero(np.isfinite(dH))
     if len(known) == 0:
         dH[:] = 0.0
     else:
-        for k in range(len(zs)):
-            if np.isfinite(dH[k]):
-                continue
-            above = known[known > k]
-            dH[k] = dH[above[0]] if len(above) else dH[known[-1]]
+        # Between two supported levels the garment spans from one to the other; above the
+        # top one and below the lowest it hangs from the nearest.
+        dH = np.interp(zs, zs[known], dH[known])
     ok = np.isfinite(G) & (G > 0)
     sx = np.ones(len(zs))
     sx[ok] = 1.0 + dH[ok] / G[ok]
@@ -210,7 +241,7 @@ def _solve_gradients(mesh, S, E2) -> np.ndarray:
 def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return_info: bool = False):
     """p-hat (N, 2) m: the base pattern stretched level by level (module docstring)."""
     xbar = np.asarray(xbar, dtype=float)
-    zmap = level_map(base_body, target_body)
+    zmap = level_map(base_body, target_body, crotch=not passes_crotch_as_one_tube(mesh, xbar, base_body))
     prof = girth_profile(mesh, xbar, base_body, target_body, base_sdf)
     S, E2 = _stretch_targets(mesh, xbar, prof, zmap)
     p = _solve_gradients(mesh, S, E2)

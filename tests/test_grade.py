@@ -126,3 +126,6 @@ def test_accuracy_against_the_drafted_size_is_reported(graded):
     _, rep = graded
     acc = rep["accuracy"]
     assert np.isfinite(acc["graded"]["max_cm"]) and acc["graded"]["max_cm"] < 5.0
+    # the hand baseline on the same truth: the skirt scaled by the hip ratio
+    scaled = acc["proportional_scaling"]
+    assert np.isfinite(scaled["max_cm"]) and scaled["ratios"]["girth"] == "hip" and scaled["ratios"]["sx"] > 1.0

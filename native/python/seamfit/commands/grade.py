@@ -231,7 +231,9 @@ def _grade(args, settings, progress, base_pattern, base_body, target_body, truth
         truth_pattern, base_unchanged = truth
         report["accuracy"] = {"truth": str(args.truth),
                               "graded": landmark_errors(result.pattern, truth_pattern).to_dict(),
-                              "base_unchanged": base_unchanged}
+                              "base_unchanged": base_unchanged,
+                              "proportional_scaling": _scaled_errors(base_pattern, base_body, target_body,
+                                                                     truth_pattern)}
 
     result.pattern.body_id = target_body.name
     save_pattern(result.pattern, tmp / "pattern.json")
@@ -258,9 +260,28 @@ def _grade(args, settings, progress, base_pattern, base_body, target_body, truth
         _print_time_split(r)
         print(progress.stages_line(), file=sys.stderr)
         if "accuracy" in r:
-            print(f"landmark error vs truth: max {r['accuracy']['graded']['max_cm']:.2f} cm "
-                  f"(unchanged base: {r['accuracy']['base_unchanged']['max_cm']:.2f} cm)", file=sys.stderr)
+            acc = r["accuracy"]
+            scaled = acc["proportional_scaling"]
+            scaled = f", proportional scaling: {scaled['max_cm']:.2f} cm" if scaled.get("max_cm") is not None else ""
+            print(f"landmark error vs truth: max {acc['graded']['max_cm']:.2f} cm "
+                  f"(unchanged base: {acc['base_unchanged']['max_cm']:.2f} cm{scaled})", file=sys.stderr)
     return report
+
+
+def _scaled_errors(base_pattern, base_body, target_body, truth_pattern) -> dict:
+    """The simplest grading a pattern maker could do by hand, scored on the same truth: each
+    panel scaled by the bodies' girth ratio across and height ratio along
+    (seamfit.pattern.scale), from the bodies' own measurements."""
+    from ..body.measure import body_measurements
+    from ..errors import SeamfitError
+    from ..pattern.compare import landmark_errors
+    from ..pattern.scale import proportional_scale
+    try:
+        m0, m1 = body_measurements(base_body), body_measurements(target_body)
+        scaled, ratios = proportional_scale(base_pattern, m0, m1)
+        return {**landmark_errors(scaled, truth_pattern).to_dict(), "ratios": ratios}
+    except SeamfitError as exc:      # a body that cannot be measured costs only this baseline
+        return {"max_cm": None, "error": str(exc)}
 
 
 def _drawers(args, base_pattern, result, base_body, target_body) -> dict:

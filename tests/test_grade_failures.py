@@ -76,6 +76,17 @@ def test_a_target_too_far_for_the_budget_returns_the_best_pattern_marked_not_con
     assert max(grew) > 1.0, grew
 
 
+def test_grading_to_the_base_body_itself_converges_at_once():
+    # Nothing to fit: the start is the answer, reported as converged, not as a budget stop.
+    body = load_body(B0)
+    res = grade(load_pattern(PATTERN), body, body, GradeSettings(**COARSE, max_outer_iterations=8, checkpoint_every=4))
+    rep = res.report
+    assert rep["converged"] is True and "already fits" in rep["message"] and rep["outer_iterations"] == 0
+    base = load_pattern(PATTERN)
+    for pb, pr in zip(base.panels, res.pattern.panels):
+        assert np.abs(pr.outline_cm - pb.outline_cm).max() < 0.05   # refit round-off only
+
+
 @pytest.mark.parametrize("bad", [{"adjoint_forcing": -0.1}, {"adjoint_forcing": 1.0},
                                  {"adjoint_forcing": float("nan")}, {"device": "tpu"}])
 def test_grade_settings_are_refused_by_name(bad):

@@ -32,6 +32,11 @@ def _on_gpu(ctx) -> bool:
             and getattr(ctx.settings, "device_state", True))
 
 
+# Real gradings start at objectives of order 1 to 1e3; one this small is floating-point
+# noise on an exact fit.
+OBJECTIVE_ROUNDOFF = 1e-12
+
+
 def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOutcome:
     """Algorithm 1's loop on ``objective`` (an ``Objective``) from the exact drape x0 of
     theta0. Checkpoints record both the searched objective and the grading f."""
@@ -72,6 +77,10 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
     gpu = _on_gpu(ctx)
     x_w, theta_w = (to_device(x), to_device(theta)) if gpu else (x, theta)
     max_work = 4 * settings.max_outer_iterations
+    if f0 <= OBJECTIVE_ROUNDOFF:
+        # Nothing to fit (the target body is the base body): every checkpoint would differ
+        # from the start by round-off alone and be backtracked until the budget ran out.
+        converged, message, max_work = True, "the start already fits (objective at round-off)", 0
     while k < settings.max_outer_iterations and work < max_work:
         t_part = time.perf_counter()
         f_cur, g = objective.gradient(x_w, theta_w, residual=x_res)

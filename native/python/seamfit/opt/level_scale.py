@@ -41,7 +41,12 @@ LEVEL_STEP_M = 0.01     # girth profile sampling
 SUPPORT_FRACTION = 0.5
 
 
-def level_map(base_body, target_body, *, crotch: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def base_levels(base_body) -> dict:
+    """The base body's measuring levels (z, metres): crotch, hip, waist, bust, armpit."""
+    return body_measurements(base_body)["levels_z_m"]
+
+
+def level_map(base_body, target_body, *, crotch: bool = True, levels: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Knots (z_base, z_target) of the monotone piecewise linear map between the two
     bodies' levels: soles, crotch (unless ``crotch`` is False), waist, armpit, crown.
 
@@ -50,7 +55,7 @@ def level_map(base_body, target_body, *, crotch: bool = True) -> tuple[np.ndarra
     placed on the target's vertices (both bodies share one mesh topology). A level found
     on each body by its own rule can land elsewhere on the body: the narrowest girth, taken
     for the waist, sits under the bust of a body with a full belly."""
-    levels = body_measurements(base_body)["levels_z_m"]
+    levels = levels or base_levels(base_body)
     s0 = _Slicer(base_body)
     tv = np.asarray(target_body.vertices, dtype=float)
     zb = [float(base_body.vertices[:, 2].min())]
@@ -72,11 +77,11 @@ def level_map(base_body, target_body, *, crotch: bool = True) -> tuple[np.ndarra
     return zb[keep], zt[keep]
 
 
-def passes_crotch_as_one_tube(mesh, xbar, base_body) -> bool:
+def passes_crotch_as_one_tube(mesh, xbar, base_body, levels: dict | None = None) -> bool:
     """Whether the garment hangs past the crotch closed around both legs (a skirt, a
     dress): its length then follows the waist, not the crotch it never meets; trousers
     fork at the crotch and a top ends above it."""
-    crotch_z = float(body_measurements(base_body)["levels_z_m"]["crotch"])
+    crotch_z = float((levels or base_levels(base_body))["crotch"])
     bottom = float(np.min(xbar[:, 2]))
     if bottom > crotch_z - 2 * LEVEL_STEP_M:
         return False
@@ -128,7 +133,7 @@ def _enclosed_growth(slicer: _Slicer, target_v: np.ndarray, z: float, garment_pt
     return g, _hull_perimeter(h0), _hull_perimeter(h1)
 
 
-def girth_profile(mesh, xbar, base_body, target_body, base_sdf) -> dict:
+def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | None = None) -> dict:
     """Per level z of the base garment: G (garment girth), dH (growth of the enclosed body
     girth where the body supports the garment, interpolated between such levels and taken
     from the nearest one where the garment hangs) and sx = 1 + dH / G."""
@@ -153,7 +158,7 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf) -> dict:
     # Below a supported hip, a garment closed around both legs (its section crosses the
     # body's midline between them: a skirt, a dress) hangs from the hip, as a straight
     # skirt's hem is drafted from the hip; trouser legs follow their own levels.
-    hip_z = float(body_measurements(base_body)["levels_z_m"]["hip"])
+    hip_z = float((levels or base_levels(base_body))["hip"])
     k_hip = int(np.argmin(np.abs(zs - hip_z)))
     if np.isfinite(dH[k_hip]):
         for k in range(k_hip):
@@ -241,8 +246,10 @@ def _solve_gradients(mesh, S, E2) -> np.ndarray:
 def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return_info: bool = False):
     """p-hat (N, 2) m: the base pattern stretched level by level (module docstring)."""
     xbar = np.asarray(xbar, dtype=float)
-    zmap = level_map(base_body, target_body, crotch=not passes_crotch_as_one_tube(mesh, xbar, base_body))
-    prof = girth_profile(mesh, xbar, base_body, target_body, base_sdf)
+    levels = base_levels(base_body)             # measured once: the slowest part of the start
+    zmap = level_map(base_body, target_body, levels=levels,
+                     crotch=not passes_crotch_as_one_tube(mesh, xbar, base_body, levels))
+    prof = girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels)
     S, E2 = _stretch_targets(mesh, xbar, prof, zmap)
     p = _solve_gradients(mesh, S, E2)
     if return_info:

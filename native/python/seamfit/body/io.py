@@ -139,7 +139,7 @@ def _read_obj_fast(text: str):
     try:
         coords = np.array(" ".join(vrows).split(), dtype=np.float64)
         flat = np.array(_SLASH_TAIL.sub("", " ".join(frows)).split(), dtype=np.int64)
-    except ValueError:
+    except (ValueError, OverflowError):   # an index past int64: the line reader names it
         return None
     nv, nf = len(vrows), len(frows)
     if coords.size != 3 * nv or flat.size != 3 * nf or nf == 0:

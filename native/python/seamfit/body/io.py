@@ -496,9 +496,12 @@ def _ply_ascii(body: bytes, elements, where: str, header_lines: int) -> dict:
                         pos += 1
             except (ValueError, IndexError):
                 raise BodyError(f"{where}: PLY line {first_line + q}: bad '{el.name}' row {' '.join(r)!r}") from None
-        tables[el.name] = {
-            n: (np.asarray(counts[n], dtype=np.int64), np.asarray(cols[n], dtype=np.int64))
-            if isinstance(t, tuple) else np.asarray(cols[n]) for n, t in el.props}
+        try:
+            tables[el.name] = {
+                n: (np.asarray(counts[n], dtype=np.int64), np.asarray(cols[n], dtype=np.int64))
+                if isinstance(t, tuple) else np.asarray(cols[n]) for n, t in el.props}
+        except OverflowError:             # an index past 64 bits
+            raise BodyError(f"{where}: PLY element '{el.name}': an index is too large to be a vertex index") from None
     return tables
 
 

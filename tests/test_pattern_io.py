@@ -229,7 +229,7 @@ def test_load_pattern_detects_format():
     ("broken.json", '{"format": "sewpat-1", ', r"broken\.json: invalid JSON at line 1"),
     ("other.json", '{"hello": 1}', r"other\.json: JSON file is not a pattern"),
     ("future.json", '{"format": "sewpat-9"}', r"future\.json: unsupported pattern format 'sewpat-9'"),
-    ("drawing.dxf", "0\nSECTION\n", r"drawing\.dxf: unsupported file type '\.dxf'"),
+    ("drawing.dwg", "0\nSECTION\n", r"drawing\.dwg: unsupported file type '\.dwg'"),
     ("list.json", "[1, 2]", r"list\.json: JSON file is not a pattern"),
 ])
 def test_load_pattern_errors_name_file(tmp_path, name, content, message):

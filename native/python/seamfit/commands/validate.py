@@ -20,6 +20,10 @@ patterns (.json): sewpat-1 files and GarmentCode *_specification.json files; the
   non-gathered stitch sides of equal length within max(--seam-tolerance, --seam-tolerance-rel
   x longer side), plausible units (cm, not mm or m), names of printable characters and
   coordinates within 1 km. See docs/formats.md.
+DXF-AAMA / DXF-ASTM patterns (.dxf): read as seamfit convert reads them (docs/formats.md,
+  "DXF"), with the stitches and placements of the seams sidecar beside the file
+  (<name>.seams.json) or --seams; then the same checks. The reader's notes (a broken cut
+  line dropped, a far piece moved) are printed as "note:" lines.
 bodies (.obj, .ply): loaded and checked by seamfit.body.
 
 exit status: 0 valid (warnings allowed unless --strict), 1 validation errors found
@@ -34,7 +38,12 @@ def register(subparsers) -> None:
         description="Check a pattern or body file and print a summary, or the problems found.",
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="pattern .json (sewpat-1 or GarmentCode "
-                   "*_specification.json) or body mesh .obj/.ply")
+                   "*_specification.json), pattern .dxf (AAMA/ASTM) or body mesh .obj/.ply")
+    p.add_argument("--dxf-units", choices=("mm", "cm", "in", "m"), default=None,
+                   help="units of a DXF pattern, overriding its header (default: from $INSUNITS or "
+                        "its Units text)")
+    p.add_argument("--seams", metavar="SEAMS.json", type=Path, default=None,
+                   help="a DXF pattern's seams sidecar (default: <name>.seams.json beside it, if any)")
     p.add_argument("--seam-tolerance", type=float, default=SEAM_TOLERANCE_CM, metavar="CM",
                    help="absolute length difference allowed between the two sides of a "
                         f"non-gathered stitch (default {SEAM_TOLERANCE_CM} cm)")
@@ -77,14 +86,16 @@ def _run_pattern(args) -> int:
     for out in (args.fix, args.svg):   # neither may replace the file being checked
         if out is not None:
             check_not_an_input(out, [args.file])
-    pattern, fmt = read_pattern_file(args.file)
+    pattern, fmt = read_pattern_file(args.file, dxf_units=getattr(args, "dxf_units", None),
+                                     seams=getattr(args, "seams", None))
     report = validate_pattern(pattern, seam_tolerance_cm=args.seam_tolerance,
                               seam_tolerance_rel=args.seam_tolerance_rel)
     out = sys.stdout
     if not args.quiet:
         n_vert = sum(len(p.outline_cm) for p in pattern.panels)
         ident = ", ".join(f"{k} {v}" for k, v in (("garment", pattern.garment_id), ("body", pattern.body_id)) if v)
-        kind = "GarmentCode specification" if fmt == "garmentcode" else fmt
+        kind = {"garmentcode": "GarmentCode specification", "dxf-aama": "DXF-AAMA",
+                "dxf-astm": "DXF-ASTM"}.get(fmt, fmt)
         print(f"{args.file}: {kind}" + (f" ({ident})" if ident else ""), file=out)
         print(f"  panels: {len(pattern.panels)}, vertices: {n_vert}, stitches: {len(pattern.stitches)} "
               f"({sum(s.gathered for s in pattern.stitches)} gathered), warnings: {len(report.warnings)}, "
@@ -92,6 +103,8 @@ def _run_pattern(args) -> int:
         for p in pattern.panels:
             print(f"  - {p.name}: {len(p.outline_cm)} vertices, {len(p.edges)} edges, "
                   f"{len(p.corners)} corners, {abs(p.signed_area_cm2()):.1f} cm2, {p.orientation}", file=out)
+    for m in (pattern.extra.get("source") or {}).get("notes", []) if fmt.startswith("dxf") else []:
+        print(f"note: {m}", file=out)
     for m in report.warnings:
         print(f"warning: {m}", file=out)
     for m in report.errors:

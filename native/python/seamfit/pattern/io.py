@@ -11,7 +11,7 @@ from .garmentcode import garment_id_from_path, is_garmentcode_spec, pattern_from
 from .model import Pattern
 from .sewpat import FORMAT, pattern_from_dict, write_sewpat
 
-READABLE = "a sewpat-1 pattern (.json) or a GarmentCode *_specification.json"
+READABLE = "a sewpat-1 pattern (.json), a GarmentCode *_specification.json or a DXF-AAMA/ASTM pattern (.dxf)"
 
 
 def detect_format(d) -> str | None:
@@ -32,9 +32,18 @@ def load_pattern(path: str | Path) -> Pattern:
     return read_pattern_file(path)[0]
 
 
-def read_pattern_file(path: str | Path) -> tuple[Pattern, str]:
-    """:func:`load_pattern`, also returning the detected format ('sewpat-1' or 'garmentcode')."""
+def read_pattern_file(path: str | Path, *, dxf_units: str | None = None,
+                      seams: str | Path | None = None) -> tuple[Pattern, str]:
+    """:func:`load_pattern`, also returning the detected format ('sewpat-1', 'garmentcode',
+    'dxf-aama' or 'dxf-astm').
+
+    A ``.dxf`` file is read by seamfit.pattern.dxf (``dxf_units`` overrides the units it
+    declares); its stitches and placements come from ``seams`` or, when that is not given,
+    from the seams sidecar beside it (``<name>.seams.json``) if there is one. The reader's
+    notes (what it dropped or guessed) are in ``pattern.extra["source"]["notes"]``."""
     path = Path(path)
+    if path.suffix.lower() == ".dxf":
+        return _read_dxf(path, dxf_units, seams)
     if not path.exists():
         raise PatternError(f"{path}: no such file")
     if path.is_dir():
@@ -70,6 +79,20 @@ def read_pattern_file(path: str | Path) -> tuple[Pattern, str]:
     if isinstance(d, dict) and "format" in d:
         raise PatternError(f"{path}: unsupported pattern format {d['format']!r}; expected {READABLE}")
     raise PatternError(f"{path}: JSON file is not a pattern; expected {READABLE}")
+
+
+def _read_dxf(path: Path, units: str | None, seams) -> tuple[Pattern, str]:
+    from .dxf import read_dxf_file
+    from .seams import apply_sidecar, sidecar_path
+    res = read_dxf_file(path, units=units)
+    source = res.pattern.extra.setdefault("source", {})
+    if res.notes:
+        source["notes"] = list(res.notes)
+    side = Path(seams) if seams is not None else sidecar_path(path)
+    if seams is not None or side.exists():
+        apply_sidecar(res.pattern, side)
+        source["seams"] = side.name
+    return res.pattern, f"dxf-{res.flavor}"
 
 
 def _same_file(a: Path, b: Path) -> bool:

@@ -1,0 +1,154 @@
+"""``seamfit convert IN --out OUT``: a pattern from one format to another, by extension.
+
+Reads sewpat-1 and GarmentCode JSON (.json) and DXF-AAMA/ASTM (.dxf); writes sewpat-1
+(.json), SVG (.svg) and DXF (.dxf). A DXF's stitches come from its seams sidecar; a DXF
+written from a pattern with stitches gets a sidecar beside it, so that converting back
+gives the same stitches and placements.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ..errors import SeamfitError
+from ..output_set import OutputSet, add_force_argument, check_not_an_input
+
+OUT_KINDS = {".json": "sewpat-1", ".svg": "svg", ".dxf": "dxf"}
+
+EPILOG = """\
+formats, by the extension of IN and OUT:
+  .json   read: sewpat-1 or GarmentCode *_specification.json (detected from content);
+          write: sewpat-1
+  .dxf    read and write: DXF-AAMA or DXF-ASTM (ASTM D6673). Written: AAMA, or ASTM when
+          OUT ends in .astm.dxf or with --dxf-flavor astm (also for .aama.dxf names).
+  .svg    write: a true-scale drawing (1 unit = 1 cm)
+
+DXF has no stitches and no 3D placement. They are kept in a seams sidecar beside the
+DXF, <name>.seams.json (for <name>.dxf, <name>.aama.dxf and <name>.astm.dxf):
+  * reading a DXF uses --seams FILE, else the sidecar beside it if there is one;
+  * --propose-seams FILE writes proposed stitches (runs between corners of equal length
+    whose notches line up), each "confirmed": false; set the right ones to true, fix or
+    add others, and convert again with --seams FILE;
+  * writing a DXF of a pattern with stitches or placements also writes its sidecar.
+See docs/formats.md, "DXF" and "Seams sidecar".
+
+seam allowance (DXF output): a cut line read from a DXF is written back as it was while
+the seam line is unchanged; otherwise each edge's allowance measured on reading is used,
+and --seam-allowance CM for every edge without one (also replacing the kept cut line).
+"""
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "convert", help="convert a pattern between sewpat-1, GarmentCode, DXF-AAMA/ASTM and SVG",
+        description="Convert a pattern file to another format, chosen by the output's extension.",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("input", metavar="IN", type=Path, help="pattern .json (sewpat-1, GarmentCode) or .dxf")
+    p.add_argument("--out", metavar="OUT", type=Path, default=None,
+                   help="output file: .json (sewpat-1), .svg or .dxf (.aama.dxf, .astm.dxf)")
+    p.add_argument("--dxf-flavor", choices=("aama", "astm"), default=None,
+                   help="DXF output flavour (default: from OUT's name, else aama)")
+    p.add_argument("--dxf-units", choices=("mm", "cm", "in", "m"), default=None,
+                   help="units of a DXF input, overriding its header")
+    p.add_argument("--dxf-out-units", choices=("mm", "in"), default="mm",
+                   help="units of a DXF output (default mm)")
+    p.add_argument("--seams", metavar="SEAMS.json", type=Path, default=None,
+                   help="seams sidecar of a DXF input (default: <name>.seams.json beside it, if any)")
+    p.add_argument("--propose-seams", metavar="SEAMS.json", type=Path, default=None,
+                   help="write proposed stitches for the user to confirm (with the pattern's own "
+                        "stitches, confirmed) to this sidecar file")
+    p.add_argument("--seam-allowance", metavar="CM", type=float, default=None,
+                   help="DXF output: seam allowance for edges without their own (see below)")
+    p.add_argument("--corners", choices=("mitre", "square"), default="mitre",
+                   help="DXF output: seam allowance corners mitred or squared (default mitre)")
+    add_force_argument(p, "OUT (and its seams sidecar) when they exist")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    p.set_defaults(func=run)
+
+
+def _out_kind(out: Path) -> str:
+    kind = OUT_KINDS.get(out.suffix.lower())
+    if kind is None:
+        raise SeamfitError(f"{out}: unknown output type {out.suffix or '(no extension)'!r}; "
+                           "expected .json (sewpat-1), .svg or .dxf")
+    return kind
+
+
+def run(args) -> int:
+    from ..pattern.dxf import flavor_from_path
+    from ..pattern.io import read_pattern_file
+    from .checks import number
+
+    if args.out is None and args.propose_seams is None:
+        raise SeamfitError("give --out OUT (and/or --propose-seams SEAMS.json)")
+    kind = _out_kind(args.out) if args.out is not None else None
+    if args.seam_allowance is not None:
+        number("--seam-allowance", args.seam_allowance, allow_zero=True)
+    inputs = [args.input, args.seams]
+    from ..pattern.seams import sidecar_path
+    if args.input.suffix.lower() == ".dxf":
+        inputs.append(sidecar_path(args.input))
+    outputs: list[Path] = []
+    flavor = None
+    if kind == "dxf":
+        flavor = args.dxf_flavor or flavor_from_path(args.out) or "aama"
+    if args.out is not None:
+        outputs.append(args.out)
+    for out in outputs + ([args.propose_seams] if args.propose_seams else []):
+        check_not_an_input(out, inputs)
+    # read (and check) before anything is written
+    pattern, fmt = read_pattern_file(args.input, dxf_units=args.dxf_units, seams=args.seams)
+    notes = (pattern.extra.get("source") or {}).get("notes", []) if fmt.startswith("dxf") else []
+    if not args.quiet:
+        for m in notes:
+            print(f"seamfit convert: note: {m}", file=sys.stderr)
+    written = []
+    if args.propose_seams is not None:
+        from ..pattern.seams import propose_stitches, sidecar_dict, write_sidecar
+        proposals = propose_stitches(pattern)
+        with OutputSet(args.propose_seams.parent, inputs=inputs, force=args.force,
+                       files=[args.propose_seams.name]) as tmp:
+            write_sidecar(tmp / args.propose_seams.name, sidecar_dict(pattern, proposals))
+        written.append(f"{args.propose_seams} ({len(pattern.stitches)} stitches, {len(proposals)} proposed)")
+    if args.out is not None:
+        written += _write(pattern, args, kind, flavor, inputs)
+    if not args.quiet:
+        print(f"{args.input}: {fmt}, {len(pattern.panels)} panels, {len(pattern.stitches)} stitches")
+        for w in written:
+            print(f"wrote {w}")
+        if fmt.startswith("dxf") and not pattern.stitches and kind == "sewpat-1" and args.propose_seams is None:
+            print("note: the DXF has no stitches; propose them with --propose-seams SEAMS.json, confirm "
+                  "them there and convert with --seams SEAMS.json", file=sys.stderr)
+    return 0
+
+
+def _write(pattern, args, kind: str, flavor: str | None, inputs) -> list[str]:
+    out: Path = args.out
+    files = [out.name]
+    sidecar = None
+    if kind == "dxf":
+        from ..pattern.seams import sidecar_dict, sidecar_path
+        d = sidecar_dict(pattern)
+        if d["stitches"] or d.get("placements"):
+            sidecar = sidecar_path(out)
+            files.append(sidecar.name)
+    with OutputSet(out.parent, inputs=inputs, force=args.force, files=files) as tmp:
+        if kind == "sewpat-1":
+            from ..pattern.sewpat import write_sewpat
+            pattern.source_file = None
+            write_sewpat(pattern, tmp / out.name)
+        elif kind == "svg":
+            from ..pattern import write_svg
+            write_svg(tmp / out.name, pattern, title=Path(args.input).name)
+        else:
+            from ..pattern.dxf import write_dxf
+            from ..pattern.seams import write_sidecar
+            write_dxf(pattern, tmp / out.name, flavor=flavor, units=args.dxf_out_units,
+                      seam_allowance_cm=args.seam_allowance, corners=args.corners)
+            if sidecar is not None:
+                write_sidecar(tmp / sidecar.name, d)
+    shown = [f"{out}" + (f" (DXF-{flavor.upper()})" if kind == "dxf" else "")]
+    if sidecar is not None:
+        shown.append(f"{sidecar} ({len(pattern.stitches)} stitches)")
+    return shown

@@ -8,6 +8,8 @@
     from_measurements(measurements, gender=None) -> MeasuredBody   a body made to measure
     load_measurement_sets(path) -> [MeasurementSet]  seamfit JSON, Seamly2D .vit / .vst
     hm08_landmarks() -> dict                     measuring landmarks of the sample bodies' mesh
+    register_body(scan, template=None) -> Registration   the base mesh fitted onto a mesh of
+                                                 another topology (a scan, a character)
 """
 from .io import Body, load_body, save_body
 from .validate import BodyReport, check_body, validate_body
@@ -16,8 +18,9 @@ from .measure import MEASUREMENTS, body_measurements, cross_section_girth
 from .measurement_sets import MeasurementError, MeasurementSet, load_measurement_sets
 from .shape_model import hm08_landmarks
 from .made_to_measure import MeasuredBody, from_measurements
+from .register import Registration, RegistrationError, check_registrable, register_body
 
 __all__ = ["Body", "BodyReport", "MEASUREMENTS", "MeasuredBody", "MeasurementError", "MeasurementSet",
-           "SignedDistanceField", "body_measurements", "build_sdf", "check_body", "cross_section_girth",
-           "from_measurements", "hm08_landmarks", "load_body", "load_measurement_sets", "save_body",
-           "validate_body"]
+           "Registration", "RegistrationError", "SignedDistanceField", "body_measurements", "build_sdf",
+           "check_body", "check_registrable", "cross_section_girth", "from_measurements", "hm08_landmarks",
+           "load_body", "load_measurement_sets", "register_body", "save_body", "validate_body"]

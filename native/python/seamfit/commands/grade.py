@@ -58,7 +58,8 @@ def register(subparsers) -> None:
     p.add_argument("--base-body", metavar="B0", type=Path, required=True,
                    help="body the base pattern fits (.obj/.ply, metres, Z up, facing -Y)")
     p.add_argument("--target-body", metavar="B1", type=Path, required=True,
-                   help="body to grade to; must share the base body's mesh topology")
+                   help="body to grade to: the base body's mesh in another shape, or any body mesh (a scan, "
+                        "a character), which is registered onto the base body's mesh first")
     p.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder (created if missing)")
     p.add_argument("--method", choices=METHODS, default=d.method,
                    help=f"search: {', '.join(METHODS)} (default {d.method}; the other two are baselines "
@@ -144,7 +145,7 @@ def run(args) -> int:
         truth = (truth_pattern, baseline_errors(base_pattern, truth_pattern).to_dict())
     base_body = checked_body(args.base_body, warn)
     target_body = checked_body(args.target_body, warn)
-    _check_same_topology(base_body, target_body)
+    target_body, registration = _registered_target(args, base_body, target_body)
     strengths = preset(args.preset, base_pattern.garment_type).strengths
     if overrides:
         from dataclasses import replace
@@ -166,7 +167,8 @@ def run(args) -> int:
     inputs = [args.pattern, args.base_body, args.target_body, args.truth]
     try:
         with OutputSet(out, inputs=inputs, force=args.force) as tmp:
-            report = _grade(args, settings, progress, base_pattern, base_body, target_body, truth, tmp)
+            report = _grade(args, settings, progress, base_pattern, base_body, target_body, truth, tmp,
+                            registration)
     except BaseException:
         if progress is not None:
             progress.fail()     # the error's line starts on a line of its own
@@ -201,19 +203,26 @@ def _strength_overrides(args) -> dict:
     return overrides
 
 
-def _check_same_topology(base, target) -> None:
-    """The search moves the garment from one body to the other vertex by vertex."""
-    import numpy as np
-    from ..errors import BodyError
-    if base.n_vertices != target.n_vertices or not np.array_equal(base.faces, target.faces):
-        same_sizes = base.n_vertices == target.n_vertices and base.n_faces == target.n_faces
-        raise BodyError(f"{target.where}: does not share the base body's mesh topology ({base.where}: "
-                        f"{base.n_vertices} vertices, {base.n_faces} faces; {target.where}: {target.n_vertices} "
-                        f"vertices, {target.n_faces} faces{', the faces differ' if same_sizes else ''}); "
-                        "grade needs one body mesh in two shapes")
+def _registered_target(args, base_body, target_body):
+    """The target on the base body's mesh: itself when it shares that mesh, else registered
+    onto it (seamfit.body.register; its checks fail at once, before any fitting)."""
+    from ..body.register import check_registrable, same_topology, target_for
+    if same_topology(base_body, target_body):
+        return target_body, None
+    check_registrable(target_body)
+    if not args.quiet:
+        print(f"seamfit grade: {args.target_body} has another mesh than the base body ({target_body.n_vertices} "
+              f"vertices, {base_body.n_vertices} in {args.base_body}): registering the base body's mesh onto it",
+              file=sys.stderr)
+    body, reg = target_for(base_body, target_body)
+    if not args.quiet:
+        print(f"seamfit grade: registered: {reg.mean_mm:.1f} mm mean, {reg.max_mm:.1f} mm max from the target's "
+              f"surface ({reg.seconds:.1f} s)", file=sys.stderr)
+    return body, reg
 
 
-def _grade(args, settings, progress, base_pattern, base_body, target_body, truth, tmp: Path) -> dict:
+def _grade(args, settings, progress, base_pattern, base_body, target_body, truth, tmp: Path,
+           registration=None) -> dict:
     """Grade, then write the set into ``tmp`` (moved to --out afterwards); the report."""
     from ..fileio import atomic_write_text, json_default
     from ..mesh import write_obj
@@ -226,6 +235,8 @@ def _grade(args, settings, progress, base_pattern, base_body, target_body, truth
     report = dict(result.report)
     report["inputs"] = {"pattern": str(args.pattern), "base_body": str(args.base_body),
                         "target_body": str(args.target_body)}
+    if registration is not None:        # the target the grading used: the base mesh fitted onto it
+        report["registration"] = registration.report()
     if truth is not None:
         from ..pattern.compare import landmark_errors
         truth_pattern, base_unchanged = truth

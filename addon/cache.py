@@ -1,7 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Precomputation kept between runs, keyed by content hashes of the inputs.
 
-It lives in the add-on's Python state (never in the .blend): re-running after a change
+It lives in the add-on's Python state (never in the .blend); seamfit's own disk cache of
+distance fields and base drapes is kept in Blender's user folder of the extension, with a
+size limit (the extension's preferences). Re-running after a change
 of strengths or of the grading method reuses the sewn mesh, the signed distance fields and
 the base drape (a grading result is keyed by every input, method included; each piece of
 precomputation only by the inputs it depends on);
@@ -11,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import threading
 from collections import OrderedDict
 from typing import Any, Callable
@@ -86,3 +89,80 @@ class Cache:
 
 # The add-on's one cache (cleared when the add-on is disabled).
 CACHE = Cache()
+
+
+# ---------------------------------------------------------------------------
+# seamfit's disk cache (body distance fields, base drapes), shared with the command line
+
+CACHE_DIR_ENV = "SEAMFIT_CACHE_DIR"
+CACHE_MAX_ENV = "SEAMFIT_CACHE_MAX_MB"
+DEFAULT_LIMIT_MB = 2048
+_set_by_us: dict = {}
+
+
+def use_disk_folder(folder: str) -> str:
+    """Point seamfit's disk cache at ``folder`` (Blender's user folder of the extension),
+    unless $SEAMFIT_CACHE_DIR was set by the user. Returns the folder in use."""
+    current = os.environ.get(CACHE_DIR_ENV)
+    if current and _set_by_us.get(CACHE_DIR_ENV) != current:
+        return current
+    os.environ[CACHE_DIR_ENV] = folder
+    _set_by_us[CACHE_DIR_ENV] = folder
+    return folder
+
+
+def set_disk_limit(mb: float) -> int:
+    """The disk cache's size limit (least recently used entries go first); applies it now.
+    Returns the number of entries evicted."""
+    os.environ[CACHE_MAX_ENV] = f"{float(mb):g}"
+    _set_by_us[CACHE_MAX_ENV] = os.environ[CACHE_MAX_ENV]
+    try:
+        from seamfit import cache as disk
+    except ImportError:
+        return 0
+    return disk.enforce_limit()
+
+
+def forget_environment() -> None:
+    """Undo what use_disk_folder and set_disk_limit set (when the add-on is disabled)."""
+    for key, value in list(_set_by_us.items()):
+        if os.environ.get(key) == value:
+            del os.environ[key]
+        del _set_by_us[key]
+
+
+def disk_folder() -> str:
+    try:
+        from seamfit import cache as disk
+        return str(disk.cache_root())
+    except ImportError:
+        return os.environ.get(CACHE_DIR_ENV, "")
+
+
+def disk_usage() -> tuple[int, int]:
+    """(entries, bytes) of seamfit's disk cache."""
+    try:
+        from seamfit import cache as disk
+    except ImportError:
+        return 0, 0
+    entries = disk.cache_entries()
+    return len(entries), sum(size for _, size, _ in entries)
+
+
+def clear_disk() -> int:
+    """Delete every entry of seamfit's disk cache and its in-memory fields; returns how
+    many files were removed."""
+    try:
+        from seamfit import cache as disk
+        from seamfit.body import sdf
+    except ImportError:
+        return 0
+    sdf.clear_memory_cache()
+    removed = 0
+    for path, _, _ in disk.cache_entries():
+        try:
+            path.unlink()
+            removed += 1
+        except OSError:
+            pass
+    return removed

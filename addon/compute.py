@@ -282,6 +282,7 @@ class RunInputs:
     opt: dict = field(default_factory=dict)
     device: str = "auto"
     method: str = "adjoint"     # seamfit.opt.grade's GradeSettings.method
+    grade_options: dict = field(default_factory=dict)   # further GradeSettings fields
 
 
 def stretch_ratio_per_vertex(uv_cm: np.ndarray, x: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -302,6 +303,34 @@ def stretch_ratio_per_vertex(uv_cm: np.ndarray, x: np.ndarray, triangles: np.nda
     np.add.at(cnt, e[:, 0], 1)
     np.add.at(cnt, e[:, 1], 1)
     return np.where(cnt > 0, acc / np.maximum(cnt, 1), 1.0)
+
+
+def principal_strains_pct(uv_cm: np.ndarray, x: np.ndarray, triangles: np.ndarray):
+    """Principal strains of each triangle in % (singular values of the map from the pattern
+    to the body, minus one): (largest per face, smallest per face, largest per vertex as the
+    area-weighted mean of its faces)."""
+    tri = np.asarray(triangles, dtype=np.int64)
+    p = 0.01 * np.asarray(uv_cm, dtype=np.float64)[tri]          # (n, 3, 2) rest, metres
+    q = np.asarray(x, dtype=np.float64)[tri]                      # (n, 3, 3) on the body
+    dp = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]], axis=2)    # (n, 2, 2)
+    dq = np.stack([q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]], axis=2)    # (n, 3, 2)
+    det = dp[:, 0, 0] * dp[:, 1, 1] - dp[:, 0, 1] * dp[:, 1, 0]
+    ok = np.abs(det) > 1e-14
+    inv = np.zeros_like(dp)
+    inv[ok, 0, 0], inv[ok, 1, 1] = dp[ok, 1, 1] / det[ok], dp[ok, 0, 0] / det[ok]
+    inv[ok, 0, 1], inv[ok, 1, 0] = -dp[ok, 0, 1] / det[ok], -dp[ok, 1, 0] / det[ok]
+    f = dq @ inv                                                  # (n, 3, 2) deformation gradient
+    s = np.linalg.svd(f, compute_uv=False) if len(f) else np.zeros((0, 2))
+    smax = np.where(ok, 100.0 * (s[:, 0] - 1.0), 0.0)
+    smin = np.where(ok, 100.0 * (s[:, 1] - 1.0), 0.0)
+    area = 0.5 * np.abs(det)
+    acc = np.zeros(len(x))
+    w = np.zeros(len(x))
+    for k in range(3):
+        np.add.at(acc, tri[:, k], area * smax)
+        np.add.at(w, tri[:, k], area)
+    vmax = np.where(w > 0, acc / np.maximum(w, 1e-30), 0.0)
+    return smax, smin, vmax
 
 
 @dataclass
@@ -419,6 +448,7 @@ class GradeOutput:
     base_name: str
     target_name: str
     target_body: Any = None     # seamfit's Body of the target
+    warnings: list = field(default_factory=list)    # for the user, e.g. a base pattern not made for the base body
 
 
 def _grade_progress(job, tracker):
@@ -442,6 +472,29 @@ def _grade_progress(job, tracker):
     return progress
 
 
+def grade_settings(inp: RunInputs):
+    """seamfit's GradeSettings for the inputs; a bad further setting is a one-line error."""
+    opt = seamfit_module("opt.grade")
+    import dataclasses
+    fields = {f.name for f in dataclasses.fields(opt.GradeSettings)}
+    given = {"strengths", "method", "edge_length_cm", "sdf_spacing", "inner_iterations", "checkpoint_every",
+             "max_outer_iterations", "device"}
+    unknown = sorted(set(inp.grade_options) - (fields - given))
+    if unknown:
+        raise AddonError(f"More grading settings: {', '.join(unknown)}: not a setting of seamfit's grading here "
+                         f"(it takes {', '.join(sorted(fields - given))})")
+    settings = opt.GradeSettings(
+        strengths=dict(inp.strengths), method=inp.method, edge_length_cm=float(inp.edge_length_cm),
+        sdf_spacing=float(inp.sim.get("sdf_spacing_m", 0.0025)),
+        inner_iterations=int(inp.opt["S"]), checkpoint_every=int(inp.opt["M"]),
+        max_outer_iterations=int(inp.opt["iterations"]), device=inp.device, **inp.grade_options)
+    try:
+        settings.validate()
+    except ValueError as exc:
+        raise AddonError(f"grading settings: {exc}") from None
+    return settings
+
+
 def run_grade(inp: RunInputs, job) -> GradeOutput:
     """seamfit.opt.grade on the captured inputs, cached by their content: the same inputs
     give the previous result at once. Within a run seamfit reuses its own caches of body
@@ -451,17 +504,13 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
     # The method is part of the result's key only: the distance fields and the base drape
     # it starts from are seamfit's, keyed without it, so a new method reuses them.
     key = digest(inp.pattern_json, round(inp.edge_length_cm, 6), inp.base.key, inp.target.key,
-                 inp.strengths, inp.opt, inp.sim, inp.method)
+                 inp.strengths, inp.opt, inp.sim, inp.method, inp.grade_options)
     from seamfit.errors import SolveError
 
     def make():
         pattern = pattern_from_json(inp.pattern_json)
         fabric, sim_settings = _sim_objects(inp.sim, inp.device)
-        settings = opt.GradeSettings(
-            strengths=dict(inp.strengths), method=inp.method, edge_length_cm=float(inp.edge_length_cm),
-            sdf_spacing=float(inp.sim.get("sdf_spacing_m", 0.0025)),
-            inner_iterations=int(inp.opt["S"]), checkpoint_every=int(inp.opt["M"]),
-            max_outer_iterations=int(inp.opt["iterations"]), device=inp.device)
+        settings = grade_settings(inp)
         tracker = seamfit_module("progress").for_grading(pattern, settings, tolerance=float(sim_settings.tolerance))
         try:
             res = opt.grade(pattern, body_object(inp.base), body_object(inp.target), settings,
@@ -489,7 +538,8 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
         base_name=inp.base.name, target_name=inp.target.name, target_body=body_object(inp.target))
 
 
-def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | None = None) -> list:
+def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | None = None,
+                      extra: dict | None = None) -> list:
     """The files `seamfit grade` writes (pattern.json, pattern.svg, garment.obj, report.json,
     then pattern.png and drape.png), from a grading run of the add-on, with the same seamfit
     writers. As in `seamfit grade`, the pictures come last and a picture that cannot be drawn
@@ -516,6 +566,7 @@ def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | 
     report = dict(g.report)
     if inputs is not None:
         report["inputs"] = dict(inputs)
+    report.update(extra or {})
 
     def write_report():
         atomic_write_text(out / "report.json", _json.dumps(report, indent=1, default=json_default) + "\n")

@@ -188,13 +188,76 @@ def check_body_into(rep, obj, depsgraph) -> tuple[bool, str]:
     return rep.ok, rep.message
 
 
+class SEAMFIT_OT_compare(bpy.types.Operator):
+    """Lay a graded pattern and its base pattern out flat beside the bodies, panel by panel,
+    to compare their outlines (replaces the previous compare view of that grading)"""
+    bl_idname = "seamfit.compare"
+    bl_label = "Compare with Base"
+    bl_options = {"REGISTER", "UNDO"}
+
+    collection: StringProperty(name="Graded pattern", description="Name of the graded collection (the newest "
+                               "grading when empty)")
+    layout: EnumProperty(name="Layout", items=[(k, *v) for k, v in scene_io.COMPARE_LAYOUTS.items()],
+                         default="SIDE_BY_SIDE")
+
+    def execute(self, context):
+        try:
+            coll = self._graded(context)
+            base_name = coll.get("seamfit_base", "")
+            base_coll = bpy.data.collections.get(base_name)
+            if base_coll is None:
+                raise compute.AddonError(f"{coll.name!r}: its base pattern {base_name!r} is no longer in the scene")
+            base = scene_io.pattern_from_collection(base_coll)
+            graded = scene_io.pattern_from_collection(coll)
+            key = compute.digest("compare", compute.pattern_to_json(base), compute.pattern_to_json(graded),
+                                 self.layout)
+            slot = scene_io.slot_name("compare", coll.name)
+            same = scene_io.reusable(slot, key)
+            origin = (_beside_bodies(context), 0.0)
+            labels = (f"base ({base_coll.seamfit.body or base_coll.name})", f"graded ({coll.seamfit.body})")
+            out = same or scene_io.place_result(
+                context, slot, key, f"{coll.name} compare",
+                lambda c, n, made: scene_io.build_compare(c, base, graded, n, self.layout, made, origin, labels))
+        except compute.user_errors() as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Compare view of {coll.name} in {out.name!r} (seen from above: numpad 7)")
+        return {"FINISHED"}
+
+    def _graded(self, context):
+        if self.collection:
+            coll = bpy.data.collections.get(self.collection)
+            if coll is None or coll.seamfit.role != "graded":
+                raise compute.AddonError(f"no graded pattern named {self.collection!r}")
+            return coll
+        graded = [c for c in bpy.data.collections if c.seamfit.role == "graded"]
+        if not graded:
+            raise compute.AddonError("no graded pattern to compare: run Adjust Pattern first")
+        return graded[-1]
+
+
+def _beside_bodies(context) -> float:
+    """x (m) just right of the bodies and garments of the scene, where the flat view goes."""
+    right = 0.5
+    for obj in context.scene.objects:
+        if obj.type == "MESH":
+            m = np.array(obj.matrix_world)
+            corners = np.array(obj.bound_box) @ m[:3, :3].T + m[:3, 3]
+            right = max(right, float(corners[:, 0].max()))
+    return right + 0.3
+
+
 class SEAMFIT_OT_clear_cache(bpy.types.Operator):
-    """Forget cached meshes, distance fields, drapes and factorizations"""
+    """Forget cached meshes, distance fields, drapes and gradings, in memory and on disk"""
     bl_idname = "seamfit.clear_cache"
     bl_label = "Clear Cache"
 
     def execute(self, context):
+        from . import cache
         CACHE.clear()
+        n, size = cache.disk_usage()
+        cache.clear_disk()
+        self.report({"INFO"}, f"Cleared the cache: {n} files, {size / 2**20:.0f} MB on disk")
         return {"FINISHED"}
 
 
@@ -207,7 +270,7 @@ def menu_export(self, context):
 
 
 CLASSES = (SEAMFIT_OT_import_pattern, SEAMFIT_OT_export_pattern, SEAMFIT_OT_check_bodies,
-           SEAMFIT_OT_clear_cache)
+           SEAMFIT_OT_compare, SEAMFIT_OT_clear_cache)
 
 
 def register():

@@ -31,7 +31,7 @@ def overlay_items(scene) -> dict:
     pattern collection of ``scene``."""
     corners, labels = [], []
     for coll in bpy.data.collections:
-        if not scene_io.is_pattern_collection(coll) or coll.seamfit.role == "drape":
+        if not scene_io.is_pattern_collection(coll) or coll.seamfit.role in ("drape", "mesh"):
             continue
         objs = scene_io.panel_objects(coll)
         pts_world = {}
@@ -59,6 +59,52 @@ def overlay_items(scene) -> dict:
     return {"corners": np.asarray(corners).reshape(-1, 3), "labels": labels}
 
 
+def legend_items(scene) -> list[dict]:
+    """The viewport legend: one colour bar per visible garment with a stretch map (its
+    range in %, what it shows, the data's own minimum and maximum)."""
+    items = []
+    for obj in scene_io.garments(scene):
+        if not obj.visible_get() or not obj.get("seamfit_stretch"):
+            continue
+        st = obj["seamfit_stretch"]
+        label = scene_io.STRETCH_MEASURES[st["measure"]][1]
+        low, high = scene_io.legend_label(st["span_pct"])
+        items.append({"object": obj.name, "span_pct": float(st["span_pct"]), "low": low, "high": high,
+                      "title": f"{obj.name}: {label} (%), {st['min_pct']:+.1f} to {st['max_pct']:+.1f}",
+                      "colors": scene_io.stretch_colors(np.linspace(-st["span_pct"], st["span_pct"], 11),
+                                                        st["span_pct"])})
+    return items
+
+
+def _draw_legend(ctx) -> None:
+    import blf
+    import gpu
+    from gpu_extras.batch import batch_for_shader
+    x0, y, w, h = 20, 40, 220, 12
+    shader = gpu.shader.from_builtin("SMOOTH_COLOR")
+    for item in reversed(legend_items(ctx.scene)):
+        cols = item["colors"]
+        n = len(cols)
+        pos, col, idx = [], [], []
+        for k in range(n):
+            x = x0 + w * k / (n - 1)
+            pos += [(x, y), (x, y + h)]
+            col += [tuple(cols[k]), tuple(cols[k])]
+            if k:
+                a = 2 * (k - 1)
+                idx += [(a, a + 2, a + 3), (a, a + 3, a + 1)]
+        batch_for_shader(shader, "TRIS", {"pos": pos, "color": col}, indices=idx).draw(shader)
+        blf.size(0, 11)
+        blf.color(0, 1.0, 1.0, 1.0, 1.0)
+        blf.position(0, x0, y - 13, 0)
+        blf.draw(0, item["low"])
+        blf.position(0, x0 + w - blf.dimensions(0, item["high"])[0], y - 13, 0)
+        blf.draw(0, item["high"])
+        blf.position(0, x0, y + h + 5, 0)
+        blf.draw(0, item["title"])
+        y += h + 45
+
+
 def _draw_view():
     ctx = bpy.context
     s = getattr(ctx.scene, "seamfit", None)
@@ -80,7 +126,11 @@ def _draw_view():
 def _draw_pixel():
     ctx = bpy.context
     s = getattr(ctx.scene, "seamfit", None)
-    if s is None or not s.show_overlay or ctx.region_data is None:
+    if s is None or ctx.region_data is None:
+        return
+    if s.show_legend:
+        _draw_legend(ctx)
+    if not s.show_overlay:
         return
     import blf
     from bpy_extras.view3d_utils import location_3d_to_region_2d

@@ -36,6 +36,10 @@ class SEAMFIT_PG_fit(bpy.types.PropertyGroup):
     has_hip: BoolProperty(description="The garment goes round the body at hip level")
 
 
+class SEAMFIT_PG_message(bpy.types.PropertyGroup):
+    """A line for the user (its text is the name)."""
+
+
 class SEAMFIT_PG_pattern_info(bpy.types.PropertyGroup):
     role: StringProperty(name="Role")
     source: StringProperty(name="Source file")
@@ -48,6 +52,7 @@ class SEAMFIT_PG_pattern_info(bpy.types.PropertyGroup):
     objective: FloatProperty(name="Final objective")
     iterations: IntProperty(name="Iterations")
     method: StringProperty(name="Method", description="The grading method that made this pattern")
+    warnings: CollectionProperty(type=SEAMFIT_PG_message)
 
 
 class SEAMFIT_PG_body_report(bpy.types.PropertyGroup):
@@ -62,7 +67,11 @@ class SEAMFIT_PG_body_report(bpy.types.PropertyGroup):
 
 
 def _is_pattern(self, coll):
-    return scene_io.is_pattern_collection(coll) and coll.get(scene_io.ROLE_KEY) != "drape"
+    return scene_io.is_pattern_collection(coll) and coll.get(scene_io.ROLE_KEY) not in ("drape", "compare")
+
+
+def _recolor(self, context):
+    scene_io.recolor_all(context.scene)
 
 
 def _is_mesh(self, obj):
@@ -163,11 +172,34 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
         ("CUDA", "CUDA", "Simulate, solve the adjoint and evaluate the costs on the NVIDIA GPU (stops with the "
                  "reason if none can be used)"),
     ])
+    grade_options: StringProperty(
+        name="More grading settings", default="",
+        description="Further settings of seamfit's grading (seamfit.opt.GradeSettings) as JSON, e.g. "
+                    "{\"start\": \"base\", \"time_budget_s\": 600}; scripts/batch_grade.py sets them from "
+                    "seamfit grade's options")
     show_overlay: BoolProperty(name="Pattern overlay", default=True,
                                description="Draw corners and stitch lengths in the viewport")
+    keep_results: BoolProperty(
+        name="Keep previous results", default=False,
+        description="Drape and Adjust add a new result next to the previous one instead of replacing it")
+    stretch_measure: EnumProperty(
+        name="Stretch map", default="EDGE", update=_recolor,
+        items=[(k, v[1], v[2]) for k, v in scene_io.STRETCH_MEASURES.items()],
+        description="What the garments' colours show")
+    stretch_range: EnumProperty(name="Colour range", default="AUTO", update=_recolor, items=[
+        ("AUTO", "From the data", "The smallest round range that holds 99 % of the garment's vertices"),
+        ("FIXED", "Fixed", "The range set below, the same for every garment"),
+    ], description="Which strain is shown fully red (stretched) or blue (compressed)")
+    stretch_span_pct: FloatProperty(name="Range (±%)", default=10.0, min=0.1, soft_max=100.0, precision=1,
+                                    update=_recolor, description="Strain shown fully red or blue, in %")
+    show_legend: BoolProperty(name="Legend", default=True,
+                              description="Draw the stretch map's colour legend in the viewport")
+    compare_layout: EnumProperty(name="Layout", default="SIDE_BY_SIDE",
+                                 items=[(k, *v) for k, v in scene_io.COMPARE_LAYOUTS.items()],
+                                 description="How Compare lays the base and graded panels out")
 
 
-CLASSES = (SEAMFIT_PG_panel_info, SEAMFIT_PG_stitch_info, SEAMFIT_PG_fit, SEAMFIT_PG_pattern_info,
+CLASSES = (SEAMFIT_PG_panel_info, SEAMFIT_PG_stitch_info, SEAMFIT_PG_fit, SEAMFIT_PG_message, SEAMFIT_PG_pattern_info,
            SEAMFIT_PG_body_report, SEAMFIT_PG_settings)
 
 
@@ -205,4 +237,18 @@ def settings_dict(s: SEAMFIT_PG_settings) -> dict:
         "opt": {"S": int(s.steps_per_iteration), "M": int(s.exact_every), "iterations": int(s.iterations)},
         "method": methods.to_seamfit(s.method),
         "device": s.device.lower(),
+        "grade_options": _grade_options(s.grade_options),
     }
+
+
+def _grade_options(text: str) -> dict:
+    import json
+    if not text.strip():
+        return {}
+    try:
+        value = json.loads(text)
+    except ValueError as exc:
+        raise compute.AddonError(f"More grading settings: not JSON ({exc})") from None
+    if not isinstance(value, dict):
+        raise compute.AddonError("More grading settings: must be a JSON object of setting: value")
+    return value

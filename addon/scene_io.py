@@ -1,7 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Blender data for seamfit's objects: patterns as collections of flat panel curves,
-stitches as loose edges, garments as meshes. Results are always NEW datablocks; a
-failure while building removes whatever was built, so the scene stays as it was.
+stitches as loose edges, garments as meshes.
+
+Each result (the sewn mesh, the drape or the grading of a pattern on a body, the compare
+view of a grading) has a slot: running it again replaces the result in its slot, and
+running it again on the same inputs keeps the existing result untouched, so repeated runs
+leave one result per slot. A failure while building removes whatever was built, and the
+previous result is only removed once its replacement is complete, so the scene stays as it
+was.
 """
 from __future__ import annotations
 
@@ -17,6 +23,16 @@ from . import compute
 PATTERN_KEY = "seamfit_pattern"   # collection: the sewpat-1 JSON the objects came from
 ROLE_KEY = "seamfit_role"         # collection: "pattern" | "graded" | "drape"
 PANEL_KEY = "seamfit_panel"       # object: the panel's name in the pattern
+SLOT_KEY = "seamfit_slot"         # collection: which result it is ("adjust|<pattern>|<body>", ...)
+INPUTS_KEY = "seamfit_inputs"     # collection: content hash of the inputs that made it
+CONTENTS_KEY = "seamfit_contents" # collection: the objects it was made with, to tell if it is intact
+STRETCH_MATERIAL_KEY = "seamfit_stretch_material"
+DISPLAY_MODIFIERS = ("seamfit refine", "seamfit outside body")
+# Drawn this far outside the body at least (the simulation keeps vertices off the body, but
+# a coarse flat triangle spanning a curved body cuts into it between its vertices).
+DISPLAY_CLEARANCE_M = 0.002
+# Display refinement: edges are split until they are about this long.
+_DISPLAY_EDGE_M = 0.008
 
 # Precision Blender keeps for curve points (float32 in metres), in cm: an exported outline
 # keeps the pattern's own float64 values where the curve was not edited.
@@ -62,14 +78,23 @@ def placement_matrix(placement) -> Matrix:
 
 def _new_collection(context, name: str, made: list, parent=None) -> bpy.types.Collection:
     coll = bpy.data.collections.new(name)
+    coll["seamfit_name"] = name     # Blender adds ".001" while an older result holds the name
     made.append(coll)
     (parent or context.scene.collection).children.link(coll)
     return coll
 
 
 def _link(coll, obj, made):
-    made.append(obj)
+    if obj not in made:
+        made.append(obj)
     coll.objects.link(obj)
+
+
+def _new_object(name: str, data, made: list) -> bpy.types.Object:
+    obj = bpy.data.objects.new(name, data)
+    obj["seamfit_name"] = name      # see _new_collection
+    made.append(obj)
+    return obj
 
 
 # Viewport colours of the panels (Solid shading, Color: Object), so neighbours differ.
@@ -91,7 +116,7 @@ def _panel_curve(name: str, panel, made: list, index: int = 0) -> bpy.types.Obje
     co[:, 3] = 1.0
     sp.points.foreach_set("co", co.ravel())
     sp.use_cyclic_u = True
-    obj = bpy.data.objects.new(name, cu)
+    obj = _new_object(name, cu, made)
     obj.matrix_world = placement_matrix(panel.placement)
     obj[PANEL_KEY] = panel.name
     obj["seamfit_corners"] = [int(i) for i in panel.corners]
@@ -118,7 +143,7 @@ def _stitch_object(name: str, pattern, made: list) -> bpy.types.Object:
     if stitch_of_edge:
         attr.data.foreach_set("value", np.asarray(stitch_of_edge, dtype=np.int32))
     me.update()
-    obj = bpy.data.objects.new(name, me)
+    obj = _new_object(name, me, made)
     obj.display_type = "WIRE"
     obj.show_in_front = True
     obj.hide_render = True
@@ -149,17 +174,18 @@ def store_summary(coll, pattern, role: str, source: str = "", body: str = "") ->
 
 
 def build_pattern(context, pattern, name: str, role: str = "pattern", source: str = "",
-                  body: str = "", parent=None, made: list | None = None) -> bpy.types.Collection:
+                  body: str = "", parent=None, made: list | None = None,
+                  with_stitches: bool = True) -> bpy.types.Collection:
     """A new collection holding one flat curve object per panel and the stitches."""
     if made is None:
         with building() as made:
-            return build_pattern(context, pattern, name, role, source, body, parent, made)
+            return build_pattern(context, pattern, name, role, source, body, parent, made, with_stitches)
     coll = _new_collection(context, name, made, parent)
     coll[PATTERN_KEY] = compute.pattern_to_json(pattern)
     coll[ROLE_KEY] = role
     for k, pn in enumerate(pattern.panels):
         _link(coll, _panel_curve(pn.name, pn, made, k), made)
-    if pattern.stitches:
+    if pattern.stitches and with_stitches:
         _link(coll, _stitch_object(f"{name} stitches", pattern, made), made)
     store_summary(coll, pattern, role, source, body)
     return coll
@@ -209,13 +235,76 @@ def pattern_from_collection(coll):
 
 
 def remove_collection(coll) -> None:
-    """Delete a collection made by seamfit and the data only it used."""
+    """Delete a collection made by seamfit, its child collections and the data only they
+    used (the shared stretch material stays)."""
+    for child in list(coll.children):
+        remove_collection(child)
     for obj in list(coll.objects):
         data = obj.data
         bpy.data.objects.remove(obj)
         if data is not None and data.users == 0:
             (bpy.data.curves if isinstance(data, bpy.types.Curve) else bpy.data.meshes).remove(data)
     bpy.data.collections.remove(coll)
+
+
+# ---------------------------------------------------------------------------
+# Result slots: one result per slot, replaced by a re-run
+
+def slot_name(kind: str, *parts: str) -> str:
+    return "|".join([kind, *parts])
+
+
+def find_slot(slot: str):
+    for coll in bpy.data.collections:
+        if coll.get(SLOT_KEY) == slot:
+            return coll
+    return None
+
+
+def _contents(coll) -> list[str]:
+    return sorted(o.name for o in coll.all_objects)
+
+
+def is_intact(coll) -> bool:
+    """Whether a result still holds every object it was made with."""
+    stored = coll.get(CONTENTS_KEY)
+    return stored is not None and sorted(stored) == _contents(coll)
+
+
+def reusable(slot: str, inputs_key: str):
+    """The result of ``slot`` when it was made from the same inputs and is intact: running
+    again then changes nothing in the scene."""
+    coll = find_slot(slot)
+    if coll is not None and coll.get(INPUTS_KEY) == inputs_key and is_intact(coll):
+        return coll
+    return None
+
+
+def place_result(context, slot: str, inputs_key: str, name: str, build, keep: bool = False):
+    """Build a result with ``build(context, name, made) -> collection`` and put it in
+    ``slot``: the previous result of the slot is removed once the new one is complete, and
+    the new one takes its name and its objects' names. With ``keep`` the previous result
+    stays, out of the slot (it is never replaced after that)."""
+    old = find_slot(slot)
+    with building() as made:
+        coll = build(context, name, made)
+    if old is not None:
+        if keep:
+            del old[SLOT_KEY]
+        else:
+            remove_collection(old)
+            # The names the old result held are free now.
+            for c in [coll, *coll.children_recursive]:
+                c.name = c.get("seamfit_name", c.name)
+            for obj in coll.all_objects:
+                want = obj.get("seamfit_name", obj.name)
+                obj.name = want
+                if obj.data is not None and obj.type in {"MESH", "CURVE", "FONT"}:
+                    obj.data.name = want
+    coll[SLOT_KEY] = slot
+    coll[INPUTS_KEY] = inputs_key
+    coll[CONTENTS_KEY] = _contents(coll)
+    return coll
 
 
 def json_summary(coll) -> dict:
@@ -225,9 +314,37 @@ def json_summary(coll) -> dict:
 # ---------------------------------------------------------------------------
 # Garments (drape and grading results)
 
-def stretch_colors(ratio: np.ndarray, span: float = 0.1) -> np.ndarray:
-    """Blue (compressed) - white (unstretched) - red (stretched by ``span`` or more)."""
-    t = np.clip((np.asarray(ratio) - 1.0) / span, -1.0, 1.0)
+# What the stretch map shows (the colour attribute is made from the stored values).
+STRETCH_MEASURES = {
+    "EDGE": ("stretch_ratio", "Edge stretch",
+             "Edge length on the body over its length in the pattern, averaged per vertex (Wang 2018, Fig. 8)"),
+    "PRINCIPAL": ("strain_max_pct_point", "Largest principal strain",
+                  "The larger principal strain of the fabric around each vertex"),
+}
+
+
+def strain_pct(values, measure: str = "EDGE") -> np.ndarray:
+    """Strain in % of the stored values: stretch ratio - 1, or the principal strain."""
+    v = np.asarray(values, dtype=np.float64)
+    return 100.0 * (v - 1.0) if measure == "EDGE" else v
+
+
+_NICE = (0.5, 1.0, 2.0, 2.5, 5.0, 10.0, 15.0, 20.0, 25.0, 50.0, 100.0)
+
+
+def auto_span_pct(strain: np.ndarray) -> float:
+    """The colour range (±span, %) chosen from the data: the smallest round number that
+    holds 99 % of the vertices, so a few outliers do not wash the map out."""
+    a = np.abs(np.asarray(strain, dtype=np.float64))
+    a = a[np.isfinite(a)]
+    q = float(np.percentile(a, 99.0)) if len(a) else 0.0
+    return next((n for n in _NICE if q <= n), _NICE[-1])
+
+
+def stretch_colors(strain_pct_values: np.ndarray, span_pct: float = 10.0) -> np.ndarray:
+    """Blue (compressed by ``span_pct`` % or more) - white (unstretched) - red (stretched
+    by ``span_pct`` % or more)."""
+    t = np.clip(np.asarray(strain_pct_values, dtype=np.float64) / max(float(span_pct), 1e-9), -1.0, 1.0)
     rgba = np.ones((len(t), 4))
     pos, neg = t > 0, t < 0
     rgba[pos, 1] -= t[pos]
@@ -237,9 +354,13 @@ def stretch_colors(ratio: np.ndarray, span: float = 0.1) -> np.ndarray:
     return rgba
 
 
-def _stretch_material(made: list) -> bpy.types.Material:
+def stretch_material() -> bpy.types.Material:
+    """The one material of every stretch map (it shows each mesh's own colour attribute)."""
+    for mat in bpy.data.materials:
+        if mat.get(STRETCH_MATERIAL_KEY):
+            return mat
     mat = bpy.data.materials.new("seamfit stretch")
-    made.append(mat)
+    mat[STRETCH_MATERIAL_KEY] = True
     if bpy.app.version < (5, 0, 0):     # always on (and deprecated) from 5.0
         mat.use_nodes = True
     nt = mat.node_tree
@@ -252,7 +373,8 @@ def _stretch_material(made: list) -> bpy.types.Material:
 
 def garment_mesh(name: str, g, made: list) -> bpy.types.Object:
     """A mesh of the garment: triangles, loose sewing edges (Blender's cloth convention),
-    the pattern as UVs, the panel of each face and the stretch ratio per vertex."""
+    the pattern as UVs, the panel of each face, the stretch ratio per vertex and the
+    principal strains."""
     x = np.asarray(g.x, dtype=np.float64)
     tri = np.asarray(g.triangles, dtype=np.int64)
     pairs = np.asarray(g.sewing_pairs, dtype=np.int64).reshape(-1, 2)
@@ -289,23 +411,163 @@ def garment_mesh(name: str, g, made: list) -> bpy.types.Object:
     if g.stretch is not None:
         ratio = me.attributes.new("stretch_ratio", "FLOAT", "POINT")
         ratio.data.foreach_set("value", np.asarray(g.stretch, dtype=np.float32))
+        smax, smin, vmax = compute.principal_strains_pct(g.uv_cm, x, tri)
+        me.attributes.new("strain_max_pct", "FLOAT", "FACE").data.foreach_set("value", smax.astype(np.float32))
+        me.attributes.new("strain_min_pct", "FLOAT", "FACE").data.foreach_set("value", smin.astype(np.float32))
+        me.attributes.new("strain_max_pct_point", "FLOAT", "POINT").data.foreach_set(
+            "value", vmax.astype(np.float32))
         col = me.color_attributes.new("stretch_color", "FLOAT_COLOR", "POINT")
-        col.data.foreach_set("color", stretch_colors(g.stretch).astype(np.float32).ravel())
         me.color_attributes.active_color = col
-        me.materials.append(_stretch_material(made))
-    obj = bpy.data.objects.new(name, me)
+        me.materials.append(stretch_material())
+    obj = _new_object(name, me, made)
     obj["seamfit_panels"] = list(g.panel_names)
     return obj
 
 
-def build_sewn(context, out, name: str) -> bpy.types.Collection:
-    """A new collection with the sewn-ready mesh of a pattern, flat at the panel placements."""
-    with building() as made:
-        coll = _new_collection(context, name, made)
-        coll[PATTERN_KEY] = out.pattern_json
-        coll[ROLE_KEY] = "drape"
-        coll.seamfit.role = "mesh"
-        _link(coll, garment_mesh(name, out.garment, made), made)
+def stretch_values(obj) -> np.ndarray | None:
+    """Strain in % of the measure the scene's stretch map shows, per vertex."""
+    s = bpy.context.scene.seamfit
+    attr_name = STRETCH_MEASURES[s.stretch_measure][0]
+    attr = obj.data.attributes.get(attr_name)
+    if attr is None:
+        return None
+    v = np.empty(len(obj.data.vertices), dtype=np.float32)
+    attr.data.foreach_get("value", v)
+    return strain_pct(v, s.stretch_measure)
+
+
+def color_stretch(obj, scene=None) -> tuple[float, float, float] | None:
+    """Colour a garment by the scene's stretch map settings; (span, data min, data max) in %,
+    also stored on the object for the legends."""
+    scene = scene or bpy.context.scene
+    s = scene.seamfit
+    if obj.type != "MESH" or "stretch_color" not in obj.data.color_attributes:
+        return None
+    strain = stretch_values(obj)
+    if strain is None or not len(strain):
+        return None
+    span = auto_span_pct(strain) if s.stretch_range == "AUTO" else float(s.stretch_span_pct)
+    col = obj.data.color_attributes["stretch_color"]
+    col.data.foreach_set("color", stretch_colors(strain, span).astype(np.float32).ravel())
+    obj.data.update()
+    obj["seamfit_stretch"] = {"span_pct": span, "min_pct": float(strain.min()), "max_pct": float(strain.max()),
+                              "measure": s.stretch_measure}
+    legend = obj.get("seamfit_legend")
+    if legend and legend in bpy.data.objects:
+        _update_legend(bpy.data.objects[legend], span, s.stretch_measure)
+    return span, float(strain.min()), float(strain.max())
+
+
+def garments(scene=None) -> list:
+    """Every garment mesh with a stretch map."""
+    return [o for o in bpy.data.objects
+            if o.type == "MESH" and "stretch_color" in o.data.color_attributes and "seamfit_stretch" in o]
+
+
+def recolor_all(scene=None) -> None:
+    for obj in garments(scene):
+        color_stretch(obj, scene)
+
+
+def legend_label(span: float) -> tuple[str, str]:
+    return f"-{span:g} %", f"+{span:g} %"
+
+
+def _legend_text(name: str, text: str, size: float, made: list, coll, parent, location, align="CENTER"):
+    cu = bpy.data.curves.new(name, "FONT")
+    made.append(cu)
+    cu.body = text
+    cu.size = size
+    cu.align_x = align
+    cu.align_y = "CENTER"
+    obj = _new_object(name, cu, made)
+    _link(coll, obj, made)
+    obj.parent = parent
+    obj.location = location
+    return obj
+
+
+def _legend_object(name: str, garment, coll, made: list) -> bpy.types.Object:
+    """A colour bar beside the garment, upright and facing the front (-Y), with its range
+    written under it: the legend of the stretch map in renders as in the viewport."""
+    n = 21
+    w, h = 0.30, 0.03
+    xs = np.linspace(-0.5 * w, 0.5 * w, n)
+    verts = [(x, 0.0, z) for x in xs for z in (0.0, h)]
+    faces = [(2 * i, 2 * i + 2, 2 * i + 3, 2 * i + 1) for i in range(n - 1)]
+    me = bpy.data.meshes.new(name)
+    made.append(me)
+    me.from_pydata(verts, [], faces)
+    me.update()
+    me.color_attributes.new("stretch_color", "FLOAT_COLOR", "POINT")
+    me.materials.append(stretch_material())
+    obj = _new_object(name, me, made)
+    _link(coll, obj, made)
+    lo, hi = np.array(garment.bound_box).min(axis=0), np.array(garment.bound_box).max(axis=0)
+    m = np.array(garment.matrix_world)
+    corners = np.array(garment.bound_box) @ m[:3, :3].T + m[:3, 3]
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    obj.location = (hi[0] + 0.05 + 0.5 * w, lo[1], 0.5 * (lo[2] + hi[2]))
+    _legend_text(f"{name} low", "", 0.025, made, coll, obj, (-0.5 * w, 0.0, -0.025))
+    _legend_text(f"{name} high", "", 0.025, made, coll, obj, (0.5 * w, 0.0, -0.025))
+    _legend_text(f"{name} title", "", 0.025, made, coll, obj, (0.0, 0.0, h + 0.025))
+    for child in obj.children:
+        child.rotation_euler = (np.pi / 2, 0.0, 0.0)    # upright, readable from the front
+    obj["seamfit_legend_of"] = garment.get("seamfit_name", garment.name)
+    garment["seamfit_legend"] = obj.name
+    return obj
+
+
+def _update_legend(obj, span: float, measure: str) -> None:
+    n = len(obj.data.vertices)
+    t = np.repeat(np.linspace(-span, span, n // 2), 2)
+    obj.data.color_attributes["stretch_color"].data.foreach_set(
+        "color", stretch_colors(t, span).astype(np.float32).ravel())
+    obj.data.update()
+    low, high = legend_label(span)
+    texts = {c.get("seamfit_name", c.name).rsplit(" ", 1)[-1]: c for c in obj.children}
+    texts["low"].data.body = low
+    texts["high"].data.body = high
+    texts["title"].data.body = f"{STRETCH_MEASURES[measure][1]} (%)"
+    obj["seamfit_span_pct"] = span
+
+
+def display_outside(obj, body, edge_length_cm: float) -> None:
+    """Modifiers that draw a draped garment outside its body at any mesh size: the mesh is
+    split to short edges (a flat triangle of a coarse mesh cuts into a curved body between
+    its vertices) and any point closer to the body than DISPLAY_CLEARANCE_M is pushed out.
+    The mesh data stays the simulation's; the modifiers are in the stack, for all to see."""
+    if body is None:
+        return
+    levels = int(max(0, np.ceil(np.log2(max(edge_length_cm / 100.0, 1e-6) / _DISPLAY_EDGE_M))))
+    sub = obj.modifiers.new(DISPLAY_MODIFIERS[0], "SUBSURF")
+    sub.subdivision_type = "SIMPLE"
+    sub.levels = sub.render_levels = min(levels, 4)
+    wrap = obj.modifiers.new(DISPLAY_MODIFIERS[1], "SHRINKWRAP")
+    wrap.target = body
+    wrap.wrap_method = "NEAREST_SURFACEPOINT"
+    wrap.wrap_mode = "OUTSIDE"
+    wrap.offset = DISPLAY_CLEARANCE_M
+
+
+def _garment_with_map(coll, name: str, g, made: list, body=None, edge_length_cm: float = 0.0):
+    obj = garment_mesh(name, g, made)
+    _link(coll, obj, made)
+    if g.stretch is not None:
+        obj["seamfit_stretch"] = {}
+        _legend_object(f"{name} legend", obj, coll, made)
+        color_stretch(obj)
+        display_outside(obj, body, edge_length_cm)
+    return obj
+
+
+def build_sewn(context, out, name: str, made: list) -> bpy.types.Collection:
+    """A collection with the sewn-ready mesh of a pattern, flat at the panel placements."""
+    coll = _new_collection(context, name, made)
+    coll[PATTERN_KEY] = out.pattern_json
+    coll[ROLE_KEY] = "drape"
+    coll.seamfit.role = "mesh"
+    _link(coll, garment_mesh(name, out.garment, made), made)
     return coll
 
 
@@ -318,30 +580,114 @@ def _store_fit(coll, fit: dict | None) -> None:
         setattr(f, key, float(fit[key]) if has else 0.0)
 
 
-def build_drape(context, out, name: str, body: str) -> bpy.types.Collection:
-    """A new collection with the draped garment (``out``: compute.DrapeOutput)."""
-    with building() as made:
-        coll = _new_collection(context, name, made)
-        coll[PATTERN_KEY] = out.pattern_json
-        coll[ROLE_KEY] = "drape"
-        coll.seamfit.role = "drape"
-        coll.seamfit.body = body
-        _link(coll, garment_mesh(f"{name} garment", out.garment, made), made)
-        _store_fit(coll, out.fit)
+def build_drape(context, out, name: str, body: str, made: list, body_object=None,
+                edge_length_cm: float = 0.0) -> bpy.types.Collection:
+    """A collection with the draped garment (``out``: compute.DrapeOutput)."""
+    coll = _new_collection(context, name, made)
+    coll[PATTERN_KEY] = out.pattern_json
+    coll[ROLE_KEY] = "drape"
+    coll.seamfit.role = "drape"
+    coll.seamfit.body = body
+    _garment_with_map(coll, f"{name} garment", out.garment, made, body_object, edge_length_cm)
+    _store_fit(coll, out.fit)
     return coll
 
 
-def build_graded(context, out, name: str, base_collection: str, body: str) -> bpy.types.Collection:
-    """A new collection with the graded pattern's panel curves and stitches, and the
-    garment sewn from it draped on the target body (``out``: compute.GradeOutput)."""
+def build_graded(context, out, name: str, base_collection: str, body: str, made: list, body_object=None,
+                 edge_length_cm: float = 0.0) -> bpy.types.Collection:
+    """A collection with the graded pattern's panel curves and stitches, and the garment
+    sewn from it draped on the target body (``out``: compute.GradeOutput)."""
     pattern = compute.pattern_from_json(out.pattern_json, source="graded pattern")
-    with building() as made:
-        coll = build_pattern(context, pattern, name, role="graded", body=body, made=made)
-        coll["seamfit_base"] = base_collection
-        if out.garment is not None:
-            _link(coll, garment_mesh(f"{name} garment", out.garment, made), made)
-        _store_fit(coll, out.fit)
-        coll.seamfit.objective = float(out.objective)
-        coll.seamfit.iterations = int(out.iterations)
-        coll.seamfit.method = out.method
+    coll = build_pattern(context, pattern, name, role="graded", body=body, made=made)
+    coll["seamfit_base"] = base_collection
+    if out.garment is not None:
+        _garment_with_map(coll, f"{name} garment", out.garment, made, body_object, edge_length_cm)
+    _store_fit(coll, out.fit)
+    coll.seamfit.objective = float(out.objective)
+    coll.seamfit.iterations = int(out.iterations)
+    coll.seamfit.method = out.method
+    for w in getattr(out, "warnings", None) or []:
+        it = coll.seamfit.warnings.add()
+        it.name = w
+    return coll
+
+
+# ---------------------------------------------------------------------------
+# Compare view: base and graded outlines flat, as pattern makers check a grading
+
+COMPARE_LAYOUTS = {
+    "SIDE_BY_SIDE": ("Side by side", "Each graded panel beside its base panel"),
+    "OVERLAY": ("Overlaid", "Each graded panel over its base panel, aligned at the middle of the top edge "
+                            "(seamfit's grading nest)"),
+}
+_COMPARE_GAP_M = 0.06
+
+
+def _flat_copy(pattern, offsets: dict):
+    """``pattern`` with every panel placed flat on the floor, its anchor at offsets[name]."""
+    import copy
+    flat = copy.deepcopy(pattern)
+    for pn in flat.panels:
+        o = pn.outline_cm
+        anchor = np.array([0.5 * (o[:, 0].min() + o[:, 0].max()), o[:, 1].max()])
+        pn.placement.rotation = np.eye(3)
+        ox, oy, oz = offsets[pn.name]
+        pn.placement.translation_m = np.array([ox - 0.01 * anchor[0], oy - 0.01 * anchor[1], oz])
+    return flat
+
+
+def compare_layout(base, graded, layout: str, origin=(0.0, 0.0)) -> tuple[dict, dict, tuple]:
+    """Anchor positions (m, on the floor) of each panel of the base and graded patterns:
+    one slot per panel name, rows left to right, tallest panels first; returns
+    (base offsets, graded offsets, (x0, y0, x1, y1) of the sheet)."""
+    def extent(pn):
+        o = 0.01 * pn.outline_cm
+        ax, ay = 0.5 * (o[:, 0].min() + o[:, 0].max()), o[:, 1].max()
+        return o[:, 0].min() - ax, o[:, 0].max() - ax, o[:, 1].min() - ay     # left, right, bottom (<= 0)
+
+    gp = {pn.name: pn for pn in graded.panels}
+    slots = []
+    for pn in base.panels:
+        l0, r0, b0 = extent(pn)
+        l1, r1, b1 = extent(gp[pn.name]) if pn.name in gp else (l0, r0, b0)
+        if layout == "OVERLAY":
+            slots.append((pn.name, min(l0, l1), max(r0, r1), min(b0, b1), 0.0))
+        else:
+            shift = (r0 - l1) + _COMPARE_GAP_M / 2      # the graded copy right of the base one
+            slots.append((pn.name, l0, shift + r1, min(b0, b1), shift))
+    slots.sort(key=lambda s: s[3])
+    area = sum((r - l) * -b for _, l, r, b, _ in slots)
+    row_width = max(max(r - l for _, l, r, _, _ in slots), 1.5 * float(np.sqrt(area)))
+    x, y, row_h, width = 0.0, 0.0, 0.0, 0.0
+    base_at, graded_at = {}, {}
+    for name, left, right, bottom, shift in slots:
+        w, h = right - left, -bottom
+        if x > 0.0 and x + w > row_width:
+            x, y, row_h = 0.0, y - row_h - 2 * _COMPARE_GAP_M, 0.0
+        ax = origin[0] + x - left
+        base_at[name] = (ax, origin[1] + y, 0.0)
+        graded_at[name] = (ax + shift, origin[1] + y, 0.001)     # drawn over the base where they overlap
+        x += w + _COMPARE_GAP_M
+        row_h = max(row_h, h)
+        width = max(width, x - _COMPARE_GAP_M)
+    return base_at, graded_at, (origin[0], origin[1] + y - row_h, origin[0] + width, origin[1])
+
+
+def build_compare(context, base_pattern, graded_pattern, name: str, layout: str, made: list,
+                  origin=(0.0, 0.0), labels=("base", "graded")) -> bpy.types.Collection:
+    """A collection with flat copies of the base and graded patterns (each a pattern
+    collection, so the overlay labels their corners and stitch lengths)."""
+    base_at, graded_at, sheet = compare_layout(base_pattern, graded_pattern, layout, origin)
+    coll = _new_collection(context, name, made)
+    coll.seamfit.role = "compare"
+    coll["seamfit_sheet"] = list(sheet)
+    for pattern, at, label, colour in ((base_pattern, base_at, labels[0], (0.05, 0.05, 0.05, 1.0)),
+                                       (graded_pattern, graded_at, labels[1], (0.84, 0.37, 0.0, 1.0))):
+        flat = _flat_copy(pattern, {n: at.get(n, (0.0, 0.0, 0.0)) for n in (p.name for p in pattern.panels)})
+        child = build_pattern(context, flat, f"{name} {label}", role="compare", parent=coll, made=made,
+                              with_stitches=False)
+        for obj in child.objects:
+            obj.color = colour
+            obj.data.fill_mode = "NONE"     # outlines, so both copies show where they overlap
+            obj.data.bevel_depth = 0.0015   # and they render
     return coll

@@ -51,7 +51,29 @@ def _run_inputs(context, with_target: bool) -> compute.RunInputs:
         pattern_name=coll.name, pattern_json=compute.pattern_to_json(pattern),
         edge_length_cm=cfg["edge_length_cm"], base=capture_body(s.base_body, depsgraph),
         sim=cfg["sim"], target=capture_body(s.target_body, depsgraph) if with_target else None,
-        strengths=cfg["strengths"], opt=cfg["opt"], device=cfg["device"], method=cfg["method"])
+        strengths=cfg["strengths"], opt=cfg["opt"], device=cfg["device"], method=cfg["method"],
+        grade_options=cfg["grade_options"])
+
+
+def _inputs_key(kind: str, inp: compute.RunInputs) -> str:
+    """What a result depends on: the same key means the same result."""
+    target = inp.target.key if inp.target is not None else ""
+    return compute.digest(kind, inp.pattern_json, round(inp.edge_length_cm, 6), inp.base.key, target, inp.sim,
+                          inp.device, *((inp.strengths, inp.opt, inp.method, inp.grade_options) if kind == "adjust" else ()))
+
+
+def _place(ctx, slot: str, key: str, name: str, build) -> tuple:
+    """(collection, reused): the slot's result when its inputs are unchanged, else a new
+    result replacing it (or beside it, with Keep previous results)."""
+    same = scene_io.reusable(slot, key)
+    if same is not None:
+        return same, True
+    keep = ctx.scene.seamfit.keep_results
+    return scene_io.place_result(ctx, slot, key, name, build, keep=keep), False
+
+
+def _object(name: str):
+    return bpy.data.objects.get(name)
 
 
 def mesh_task(context) -> Task:
@@ -61,39 +83,53 @@ def mesh_task(context) -> Task:
     name = s.pattern.name
     text = compute.pattern_to_json(scene_io.pattern_from_collection(s.pattern))
     edge = float(s.edge_length_cm)
+    key = compute.digest("mesh", text, round(edge, 6))
 
     def apply(ctx, out) -> str:
-        coll = scene_io.build_sewn(ctx, out, f"{name} sewn mesh")
+        coll, reused = _place(ctx, scene_io.slot_name("mesh", name), key, f"{name} sewn mesh",
+                              lambda c, n, made: scene_io.build_sewn(c, out, n, made))
         g = out.garment
         return (f"Meshed {name} at {edge:g} cm: {len(g.x)} vertices, {len(g.triangles)} triangles, "
-                f"{len(g.sewing_pairs)} sewing pairs in {coll.name!r}")
+                f"{len(g.sewing_pairs)} sewing pairs in {coll.name!r}" + (" (unchanged)" if reused else ""))
     return Task(f"mesh {name}", lambda job: compute.run_mesh(text, edge, job), apply)
 
 
 def drape_task(context) -> Task:
     inputs = _run_inputs(context, with_target=False)
+    key = _inputs_key("drape", inputs)
+    slot = scene_io.slot_name("drape", inputs.pattern_name, inputs.base.name)
 
     def apply(ctx, out) -> str:
-        coll = scene_io.build_drape(ctx, out, f"{inputs.pattern_name} on {inputs.base.name}",
-                                    body=inputs.base.name)
+        def build(c, n, made):
+            return scene_io.build_drape(c, out, n, body=inputs.base.name, made=made,
+                                        body_object=_object(inputs.base.name),
+                                        edge_length_cm=inputs.edge_length_cm)
+        coll, reused = _place(ctx, slot, key, f"{inputs.pattern_name} on {inputs.base.name}", build)
         _last["drape"] = out
         state = "converged" if out.converged else f"not converged ({out.message})"
-        return f"Draped {inputs.pattern_name} on {inputs.base.name}: {state}; result in {coll.name!r}"
+        return (f"Draped {inputs.pattern_name} on {inputs.base.name}: {state}; result in {coll.name!r}"
+                + (" (unchanged)" if reused else ""))
     return Task(f"drape {inputs.pattern_name}", lambda job: compute.run_drape(inputs, job), apply)
 
 
 def adjust_task(context) -> Task:
     inputs = _run_inputs(context, with_target=True)
     base_coll_name = context.scene.seamfit.pattern.name
+    key = _inputs_key("adjust", inputs)
+    slot = scene_io.slot_name("adjust", base_coll_name, inputs.target.name)
 
     def apply(ctx, out) -> str:
-        coll = scene_io.build_graded(ctx, out, f"{inputs.target.name} {inputs.pattern_name}",
-                                     base_collection=base_coll_name, body=inputs.target.name)
+        def build(c, n, made):
+            return scene_io.build_graded(c, out, n, base_collection=base_coll_name, body=inputs.target.name,
+                                         made=made, body_object=_object(inputs.target.name),
+                                         edge_length_cm=inputs.edge_length_cm)
+        coll, reused = _place(ctx, slot, key, f"{inputs.target.name} {inputs.pattern_name}", build)
         _last["adjust"] = out
         state = "converged" if out.converged else f"stopped: {out.message}"
         return (f"Graded {inputs.pattern_name} to {inputs.target.name} with {methods.label(out.method)} "
                 f"in {out.iterations} iterations ({state}, objective {out.objective:.4g}); "
-                f"result in {coll.name!r}")
+                f"result in {coll.name!r}" + (" (unchanged)" if reused else "")
+                + "".join(f"; warning: {w}" for w in out.warnings))
     return Task(f"grade {inputs.pattern_name} to {inputs.target.name}",
                 lambda job: compute.run_grade(inputs, job), apply)
 
@@ -119,18 +155,24 @@ class Runner:
     def cancel(self) -> None:
         self.job.cancel()
 
+    def answered(self) -> bool:
+        """Whether the operator can end now: the job finished, or it was cancelled. A
+        cancelled job is not waited for: a step that cannot stop at once (a body field being
+        built) runs on in its thread, and its outcome is dropped; the scene is not touched."""
+        return self.job.done or self.job.cancelled
+
     def finish(self, context) -> tuple[str, str]:
         """Apply a finished job. Returns (status, message): status is FINISHED,
         CANCELLED or ERROR; only FINISHED changed the scene."""
         jobs.end(self.job)
         job = self.job
+        if job.cancelled:
+            return "CANCELLED", f"{job.label} cancelled; the scene is unchanged"
         if job.error is not None:
             if isinstance(job.error, compute.user_errors()):
                 return "ERROR", str(job.error)
             print(job.error_trace)
             return "ERROR", f"internal error in {job.label}: {job.error!r} (details in the console)"
-        if job.cancelled:
-            return "CANCELLED", f"{job.label} cancelled; the scene is unchanged"
         try:
             return "FINISHED", self.task.apply(context, job.result)
         except compute.user_errors() as exc:
@@ -190,7 +232,7 @@ class _JobOperator:
         runner = self._runner
         if event.type == "ESC" and event.value == "PRESS":
             runner.cancel()
-        if event.type != "TIMER":
+        elif event.type != "TIMER":
             return {"PASS_THROUGH"}
         snap = runner.job.snapshot()
         wm = context.window_manager
@@ -201,7 +243,7 @@ class _JobOperator:
         if context.workspace is not None:
             context.workspace.status_text_set(text + "   Esc: cancel")
         _redraw_ui(context)
-        if not runner.job.done:
+        if not runner.answered():
             return {"PASS_THROUGH"}
         wm.event_timer_remove(self._timer)
         wm.progress_end()

@@ -142,6 +142,11 @@ class SEAMFIT_PT_cache(_SeamfitPanel, bpy.types.Panel):
                  "drape": "Base drapes", "grader": "Factorizations", "grade": "Gradings"}
         for key, label in names.items():
             col.label(text=f"{label}: {counts.get(key, 0)}  (reused {CACHE.hits.get(key, 0)}×)")
+        from . import cache, prefs
+        n, size = cache.disk_usage()
+        p = prefs.preferences()
+        limit = f" of {p.cache_limit_mb:.0f}" if p is not None else ""
+        col.label(text=f"On disk: {n} files, {size / 2**20:.0f}{limit} MB")
         self.layout.operator("seamfit.clear_cache", icon="TRASH")
 
 
@@ -163,10 +168,30 @@ class SEAMFIT_PT_run(_SeamfitPanel, bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("seamfit.drape", icon="MOD_CLOTH")
         row.operator("seamfit.adjust", icon="MOD_SHRINKWRAP")
-        _draw_results(layout)
+        s = context.scene.seamfit
+        layout.prop(s, "keep_results")
+        _draw_results(layout, s)
 
 
-def _draw_results(layout):
+class SEAMFIT_PT_stretch(_SeamfitPanel, bpy.types.Panel):
+    bl_label = "Stretch Map"
+    bl_parent_id = "SEAMFIT_PT_run"
+
+    def draw(self, context):
+        s = context.scene.seamfit
+        layout = self.layout
+        layout.prop(s, "stretch_measure")
+        layout.prop(s, "stretch_range")
+        if s.stretch_range == "FIXED":
+            layout.prop(s, "stretch_span_pct")
+        layout.prop(s, "show_legend")
+        for obj in scene_io.garments(context.scene)[-4:]:
+            st = obj["seamfit_stretch"]
+            layout.label(text=f"{obj.name}: {st['min_pct']:+.1f} to {st['max_pct']:+.1f} %, "
+                              f"colours ±{st['span_pct']:g} %", icon="COLOR")
+
+
+def _draw_results(layout, s):
     results = [c for c in bpy.data.collections
                if scene_io.is_pattern_collection(c) and c.seamfit.role in {"drape", "graded"}]
     if not results:
@@ -178,6 +203,13 @@ def _draw_results(layout):
         if c.seamfit.role == "graded" and c.seamfit.method:
             box.label(text=f"{methods.label(c.seamfit.method)}: objective {c.seamfit.objective:.4g} "
                            f"in {c.seamfit.iterations} iterations")
+        for w in c.seamfit.warnings:
+            box.label(text=w.name, icon="ERROR")
+        if c.seamfit.role == "graded":
+            row = box.row(align=True)
+            op = row.operator("seamfit.compare", icon="SPLIT_HORIZONTAL")
+            op.collection, op.layout = c.name, s.compare_layout
+            row.prop(s, "compare_layout", text="")
         fit = c.seamfit.fit
         if fit.valid:
             parts = [f"{k.capitalize()} {getattr(fit, k):+.1f}" if getattr(fit, f"has_{k}") else f"{k.capitalize()} –"
@@ -186,7 +218,7 @@ def _draw_results(layout):
 
 
 CLASSES = (SEAMFIT_UL_panels, SEAMFIT_UL_stitches, SEAMFIT_PT_patterns, SEAMFIT_PT_bodies,
-           SEAMFIT_PT_costs, SEAMFIT_PT_simulation, SEAMFIT_PT_cache, SEAMFIT_PT_run)
+           SEAMFIT_PT_costs, SEAMFIT_PT_simulation, SEAMFIT_PT_cache, SEAMFIT_PT_run, SEAMFIT_PT_stretch)
 
 
 def register():

@@ -57,7 +57,12 @@ def scene_fingerprint() -> dict:
         "collections": sorted((c.name, tuple(sorted(o.name for o in c.objects))) for c in bpy.data.collections),
         "meshes": sorted(m.name for m in bpy.data.meshes),
         "curves": sorted(c.name for c in bpy.data.curves),
+        "materials": sorted(m.name for m in bpy.data.materials),
     }
+
+
+def datablock_counts() -> dict:
+    return {k: len(getattr(bpy.data, k)) for k in ("collections", "objects", "meshes", "curves", "materials")}
 
 
 def import_obj(path: Path, name: str):

@@ -59,26 +59,31 @@ def test_unchanged_inputs_are_instant_and_strengths_reuse_the_base(setup):
     cache = addon().cache.CACHE
     solve = addon().solve
     bpy.ops.seamfit.adjust()
+    before = scene_fingerprint()
     t0 = time.perf_counter()
     bpy.ops.seamfit.adjust()
     assert time.perf_counter() - t0 < 2.0
     assert cache.hits["grade"] == 1
-    a, b = _graded_collections()
-    pa = addon().scene_io.pattern_from_collection(a)
-    pb = addon().scene_io.pattern_from_collection(b)
-    _assert_same_pattern(pa, pb, tol_cm=0.0)
-    # Only a strength changed: a new grading, on the cached base drape.
+    assert scene_fingerprint() == before        # the cache hit added nothing
+    (a,) = _graded_collections()
+    # Only a strength changed: a new grading, on the cached base drape, replacing the first.
     setup.strength_smo = 0.5
     bpy.ops.seamfit.adjust()
     assert cache.misses["grade"] == 2
     assert solve.last_result().report["base_drape"]["cached"] is True
+    (b,) = _graded_collections()
+    assert b.name == f"women_size10 {setup.pattern.name}"
 
 
-def test_undo_removes_the_result(setup):
+def test_undo_restores_the_replaced_result(setup):
+    smo = setup.strength_smo
     bpy.ops.seamfit.adjust()        # fills the cache, so the run under test is instant
+    setup.strength_smo = 0.5
+    bpy.ops.seamfit.adjust()        # replaces the first result
     undo_push("before adjust")
     before = scene_fingerprint()
-    bpy.ops.seamfit.adjust()
+    setup.strength_smo = smo
+    bpy.ops.seamfit.adjust()        # the first result again, in place of the second
     undo_push("Adjust Pattern")
     assert scene_fingerprint() != before
     undo()

@@ -495,6 +495,50 @@ def grade_settings(inp: RunInputs):
     return settings
 
 
+# Ease (cm) at the level where a garment rests on its body beyond which it looks made for
+# another body (the garment's girth is then nearer the other body's than its base body's).
+_MISMATCH_EASE_CM = 1.5
+
+
+def fit_warnings(base_ease: dict, base_girths: dict, target_girths: dict, base_name: str, target_name: str,
+                 pattern_body: str = "") -> list[str]:
+    """Whether the base pattern looks made for the base body, from the base drape: at the
+    level where the garment rests on the body (its smallest ease, where a garment hangs
+    from), its girth should be nearer the base body's girth than the target's. Also the
+    pattern's own body name when it names the target rather than the base. Lines for the
+    user, with the numbers; empty when all is well."""
+    out = []
+    levels = {k: v for k, v in (base_ease or {}).items()
+              if v is not None and k in base_girths and k in target_girths}
+    if levels:
+        level = min(levels, key=lambda k: levels[k])
+        e0 = float(levels[level])
+        g0, g1 = float(base_girths[level]), float(target_girths[level])
+        garment = g0 + e0
+        nearer_target = abs(garment - g1) < abs(garment - g0)
+        if nearer_target and abs(e0) > _MISMATCH_EASE_CM:
+            size = "larger" if e0 > 0 else "smaller"
+            out.append(f"the base pattern looks made for a {size} body than {base_name}: at the {level} the draped "
+                       f"base garment measures {garment:.1f} cm, {base_name} {g0:.1f} cm (ease {e0:+.1f} cm), "
+                       f"{target_name} {g1:.1f} cm; grading assumes the base pattern fits the base body")
+    tag = (pattern_body or "").strip().lower()
+    if tag and tag not in base_name.lower() and tag in target_name.lower():
+        out.append(f"the base pattern says it was made for {pattern_body!r}, which names the target "
+                   f"{target_name}, not the base body {base_name}")
+    return out
+
+
+def _fit_check(inp: RunInputs, report: dict) -> list[str]:
+    ease = (report.get("ease_cm") or {}).get("base") or {}
+    try:
+        m0, m1 = body_measurements(inp.base), body_measurements(inp.target)
+    except user_errors():       # bodies seamfit cannot measure: nothing to compare
+        return []
+    girths = [{k: float(m[k]) for k in ("bust", "waist", "hip") if m.get(k) is not None} for m in (m0, m1)]
+    body = pattern_from_json(inp.pattern_json).body_id or ""
+    return fit_warnings(ease, girths[0], girths[1], inp.base.name, inp.target.name, body)
+
+
 def run_grade(inp: RunInputs, job) -> GradeOutput:
     """seamfit.opt.grade on the captured inputs, cached by their content: the same inputs
     give the previous result at once. Within a run seamfit reuses its own caches of body
@@ -535,7 +579,8 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
         objective=float(r["objective_final"]), iterations=int(r["outer_iterations"]),
         converged=bool(r["converged"]), method=str(r.get("method", inp.method)), message=str(r["message"]),
         fit={k: float(v) for k, v in ease.items() if v is not None}, report=r, result=res,
-        base_name=inp.base.name, target_name=inp.target.name, target_body=body_object(inp.target))
+        base_name=inp.base.name, target_name=inp.target.name, target_body=body_object(inp.target),
+        warnings=_fit_check(inp, r))
 
 
 def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | None = None,

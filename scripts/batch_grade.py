@@ -3,104 +3,137 @@
 extension's operators, and save the result as a .blend next to the files that
 `seamfit grade` writes.
 
-Run it either way:
+Run it with Blender's Python, either way:
 
     blender --background --python scripts/batch_grade.py -- PATTERN --base-body B0 --target-body B1 --out DIR
-    python scripts/batch_grade.py PATTERN --base-body B0 --target-body B1 --out DIR      (bpy module)
+    python scripts/batch_grade.py PATTERN --base-body B0 --target-body B1 --out DIR      (a Python with bpy)
 
-The arguments are those of `seamfit grade`, --method included. PATTERN is a sewpat-1 or
-GarmentCode JSON file; B0 and B1 are body meshes (.obj or .ply, metres, Z up, facing -Y).
-DIR receives graded.blend (bodies, base pattern, adjusted pattern, draped garment) and seamfit grade's files
-(pattern.json, pattern.svg, garment.obj, report.json, and pattern.png and drape.png where matplotlib is
-installed). The seamfit extension must be installed in that Blender, or given with
---addon-zip (then it is installed into a temporary folder, not into your Blender).
-The folder is written as a set, as `seamfit grade` writes it: a non-empty DIR is replaced
-only with --force, never when it holds an input, and a failed or interrupted run leaves it
-as it was.
-Exit status: 0 results written (report.json says whether the optimization converged; with
---fail-unconverged a run that stopped at its budget exits 1), 2 bad input or failure.
+It takes every option of `seamfit grade` (the same definition: the installed seamfit's), plus
+--addon-zip ZIP (install that extension into a temporary folder, removed afterwards, instead
+of using the one installed in this Blender) and --drape (also keep the base garment draped on
+the base body). DIR receives graded.blend (bodies, base pattern, adjusted pattern, draped
+garment) and seamfit grade's files (pattern.json, pattern.svg, garment.obj, report.json, and
+pattern.png and drape.png where matplotlib is installed), written as a set: a non-empty DIR
+is replaced only with --force, never when it holds an input, and a failed or interrupted run
+leaves it as it was.
+
+Exit status, as `seamfit grade`'s: 0 results written (report.json says whether the search
+converged), 1 stopped at its budget with --fail-unconverged (results written), 2 unusable
+input or options, or no Blender Python, 3 internal error, 130 interrupted.
 """
 from __future__ import annotations
 
-import argparse
 import os
+import shutil
 import sys
 import tempfile
 from pathlib import Path
 
-IN_BLENDER = "bpy" in sys.modules or Path(sys.argv[0]).name.startswith("blender")
-# seamfit grade's --method choices (the extension is only importable once it is enabled).
-METHODS = ("adjoint", "two-phase", "fixed-point")
+PROG = "batch_grade.py"
+HOW_TO_RUN = ("it needs Blender's Python: run `blender --background --python scripts/batch_grade.py -- ARGS`, "
+              "or this script with a Python that has the bpy module (pip install bpy)")
+# The options the add-on's scene settings hold; the others go to its further grading settings.
+_SCENE_OPTIONS = {"method", "preset", "fix", "cur", "dis", "smo", "str", "pos", "seam", "edge_length",
+                  "sdf_spacing", "inner_iterations", "checkpoint_every", "max_iterations", "device"}
+_GRADE_SETTINGS = {"start": "start", "sdf_region": "sdf_region", "sdf_margin": "sdf_region_margin",
+                   "time_budget": "time_budget_s", "adjoint_forcing": "adjoint_forcing"}
+_temporary: list[str] = []
+_quiet = False
+
+
+class Failed(Exception):
+    """A one-line error for the user, and the exit status."""
+
+    def __init__(self, message: str, code: int = 2):
+        super().__init__(message)
+        self.code = code
 
 
 def _argv() -> list[str]:
     # Blender passes its own arguments too; ours follow "--".
     if "--" in sys.argv:
         return sys.argv[sys.argv.index("--") + 1:]
-    return [] if IN_BLENDER else sys.argv[1:]
+    in_blender = "bpy" in sys.modules and Path(sys.argv[0]).name.startswith("blender")
+    return [] if in_blender else sys.argv[1:]
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="batch_grade.py", description=__doc__.split("\n\n")[0])
-    p.add_argument("pattern", metavar="PATTERN", type=Path, help="base pattern (sewpat-1 or GarmentCode JSON)")
-    p.add_argument("--base-body", metavar="B0", type=Path, required=True, help="body the base pattern fits")
-    p.add_argument("--target-body", metavar="B1", type=Path, required=True, help="body to grade to")
-    p.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder (created if missing)")
-    p.add_argument("--method", choices=METHODS, default=None,
-                   help="search: adjoint (Algorithm 1, the default) or a baseline for comparison, "
-                        "two-phase or fixed-point")
-    p.add_argument("--preset", default=None, help="strength preset (dress, fitted, skirt_shirring, pants)")
-    for key in ("fix", "cur", "dis", "smo", "str", "pos"):
-        p.add_argument(f"--{key}", type=float, default=None, metavar="DELTA", help=f"override the {key} strength")
-    p.add_argument("--edge-length", metavar="CM", type=float, default=None, help="mesh edge length (default 1.5)")
-    p.add_argument("--sdf-spacing", metavar="M", type=float, default=None, help="body SDF spacing (default 0.0025)")
-    p.add_argument("--inner-iterations", "-S", metavar="S", type=int, default=None,
-                   help="simulation iterations per outer iteration")
-    p.add_argument("--checkpoint-every", "-M", metavar="M", type=int, default=None,
-                   help="exact simulation every M outer iterations")
-    p.add_argument("--max-iterations", metavar="N", type=int, default=None, help="outer iteration budget")
-    p.add_argument("--device", choices=["auto", "cpu", "cuda"], default=None)
-    p.add_argument("--no-picture", action="store_true", help="do not write pattern.png and drape.png")
-    p.add_argument("--force", action="store_true", help="replace a non-empty output folder")
-    p.add_argument("--fail-unconverged", action="store_true",
-                   help="exit 1 when the optimization stopped at its budget (the results are still written)")
+def say(message: str) -> None:
+    if not _quiet:
+        print(f"batch_grade: {message}")
+
+
+def _prefix_options(argv: list[str]):
+    """--addon-zip, --drape and -q/--quiet, known before seamfit (and so the full parser) is there."""
+    import argparse
+    pre = argparse.ArgumentParser(add_help=False)
+    pre.add_argument("--addon-zip", type=Path, default=None)
+    pre.add_argument("--drape", action="store_true")
+    pre.add_argument("-q", "--quiet", action="store_true")
+    pre.add_argument("-h", "--help", action="store_true")
+    return pre.parse_known_args(argv)[0]
+
+
+def build_parser():
+    """seamfit grade's own parser (from the installed seamfit), with this script's name and
+    its two options added."""
+    import argparse
+    from seamfit.commands import grade as grade_command
+    root = argparse.ArgumentParser(prog=PROG)
+    subs = root.add_subparsers(dest="command")
+    grade_command.register(subs)
+    p = subs.choices["grade"]
+    p.prog = PROG
+    p.description = __doc__.split("\n\n")[0] + ". The options are those of seamfit grade, plus --addon-zip and --drape."
+    p.add_argument("--addon-zip", type=Path, default=None, metavar="ZIP",
+                   help="install this seamfit extension zip into a temporary folder (removed afterwards) and use it")
     p.add_argument("--drape", action="store_true", help="also keep the base garment draped on the base body")
-    p.add_argument("--addon-zip", type=Path, default=None,
-                   help="install this seamfit extension zip into a temporary folder and use it")
     return p
 
 
-def fail(msg: str, code: int = 2):
-    print(f"batch_grade: error: {msg}", file=sys.stderr)
-    sys.exit(code)
+def _temp_folder(prefix: str) -> str:
+    path = tempfile.mkdtemp(prefix=prefix)
+    _temporary.append(path)
+    return path
+
+
+def _cleanup() -> None:
+    """The temporary Blender folders (the installed extension: about 280 MB) go with the run."""
+    while _temporary:
+        shutil.rmtree(_temporary.pop(), ignore_errors=True)
 
 
 def _prepare_blender(addon_zip: Path | None):
     """Import bpy (outside Blender) and make sure the seamfit extension is enabled.
     Returns the extension's module name."""
-    if not IN_BLENDER and addon_zip is not None and "BLENDER_USER_RESOURCES" not in os.environ:
-        # Keep the temporary install out of the user's Blender configuration.
-        os.environ["BLENDER_USER_RESOURCES"] = tempfile.mkdtemp(prefix="seamfit-batch-")
-    import bpy
+    if addon_zip is not None:
+        if not addon_zip.is_file():
+            raise Failed(f"{addon_zip}: no such extension zip")
+        if "bpy" not in sys.modules and "BLENDER_USER_RESOURCES" not in os.environ:
+            # Keep the temporary install out of the user's Blender configuration.
+            os.environ["BLENDER_USER_RESOURCES"] = _temp_folder("seamfit-batch-")
+        # A temporary install: seamfit's disk cache stays where the command line keeps it.
+        os.environ.setdefault("SEAMFIT_CACHE_DIR", str(Path.home() / ".cache" / "seamfit"))
+    try:
+        import bpy
+    except ImportError:
+        raise Failed(HOW_TO_RUN) from None
     import addon_utils
 
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
     if addon_zip is not None:
-        if not addon_zip.is_file():
-            fail(f"{addon_zip}: no such extension zip")
-        repo_dir = tempfile.mkdtemp(prefix="seamfit-batch-repo-")
+        repo_dir = _temp_folder("seamfit-batch-repo-")
         repos = bpy.context.preferences.extensions.repos
         repo = repos.new(name="seamfit_batch", module="seamfit_batch", custom_directory=repo_dir, source="USER")
         result = bpy.ops.extensions.package_install_files(filepath=str(addon_zip), repo=repo.module,
                                                           enable_on_install=True)
         if result != {"FINISHED"}:
-            fail(f"{addon_zip}: the extension did not install")
+            raise Failed(f"{addon_zip}: the extension did not install")
     enabled = [m for m in bpy.context.preferences.addons.keys() if m.endswith(".seamfit") and m.startswith("bl_ext.")]
     if not enabled:
         installed = [m.__name__ for m in addon_utils.modules() if m.__name__.endswith(".seamfit")
                      and m.__name__.startswith("bl_ext.")]
         if not installed:
-            fail("the seamfit extension is not installed in this Blender; install it or pass --addon-zip")
+            raise Failed("the seamfit extension is not installed in this Blender; install it or pass --addon-zip")
         bpy.ops.preferences.addon_enable(module=installed[0])
         enabled = installed[:1]
     return enabled[0]
@@ -109,7 +142,7 @@ def _prepare_blender(addon_zip: Path | None):
 def _import_body(path: Path):
     import bpy
     if not path.is_file():
-        fail(f"{path}: no such body mesh")
+        raise Failed(f"{path}: no such body mesh")
     before = set(bpy.data.objects)
     ext = path.suffix.lower()
     # The bodies are stored Z up in metres: import them without any axis change.
@@ -118,46 +151,77 @@ def _import_body(path: Path):
     elif ext == ".ply":
         bpy.ops.wm.ply_import(filepath=str(path), forward_axis="Y", up_axis="Z")
     else:
-        fail(f"{path}: unsupported body file type {ext!r} (.obj or .ply)")
+        raise Failed(f"{path}: unsupported body file type {ext!r} (.obj or .ply)")
     new = [o for o in bpy.data.objects if o not in before and o.type == "MESH"]
     if len(new) != 1:
-        fail(f"{path}: expected one mesh, found {len(new)}")
+        raise Failed(f"{path}: expected one mesh, found {len(new)}")
     new[0].name = path.stem      # seamfit names a body after its file, so the results match
     return new[0]
 
 
 def _apply_settings(s, args, addon) -> None:
-    """Scene settings from the arguments; unset ones keep the add-on's defaults, which are
-    seamfit grade's defaults."""
-    if args.method is not None:
-        s.method = addon.methods.from_seamfit(args.method)
-    if args.preset:
-        try:
-            s.strength_preset = args.preset
-        except TypeError:
-            fail(f"unknown preset {args.preset!r}")
-    for key in ("fix", "cur", "dis", "smo", "str", "pos"):
+    """Scene settings from the arguments (whose defaults are seamfit grade's, as the add-on's)."""
+    import json
+    s.method = addon.methods.from_seamfit(args.method)
+    if args.preset != "auto":       # auto: the import picked the preset for the garment's kind
+        s.strength_preset = args.preset
+    for key in ("fix", "cur", "dis", "smo", "str", "pos", "seam"):
         if getattr(args, key) is not None:
             setattr(s, f"strength_{key}", getattr(args, key))
-    if args.edge_length is not None:
-        s.edge_length_cm = args.edge_length
-    if args.sdf_spacing is not None:
-        s.sdf_spacing_mm = 1000.0 * args.sdf_spacing
-    if args.inner_iterations is not None:
-        s.steps_per_iteration = args.inner_iterations
-    if args.checkpoint_every is not None:
-        s.exact_every = args.checkpoint_every
-    if args.max_iterations is not None:
-        s.iterations = args.max_iterations
-    if args.device is not None:
-        s.device = args.device.upper()
+    s.edge_length_cm = args.edge_length
+    s.sdf_spacing_mm = 1000.0 * args.sdf_spacing
+    s.steps_per_iteration = args.inner_iterations
+    s.exact_every = args.checkpoint_every
+    s.iterations = args.max_iterations
+    s.device = args.device.upper()
+    from seamfit.opt.grade import GradeSettings
+    d = GradeSettings()
+    extra = {field: getattr(args, name) for name, field in _GRADE_SETTINGS.items()
+             if getattr(args, name) != getattr(d, field)}
+    s.grade_options = json.dumps(extra) if extra else ""
 
 
-def main() -> int:
-    args = build_parser().parse_args(_argv())
+def _check_options(args) -> None:
+    """The command line's own checks of its numbers, before anything is imported."""
+    from seamfit.commands.checks import number, whole
+    number("--edge-length", args.edge_length)
+    number("--sdf-spacing", args.sdf_spacing)
+    number("--sdf-margin", args.sdf_margin, allow_zero=True)
+    number("--time-budget", args.time_budget, allow_zero=True)
+    number("--adjoint-forcing", args.adjoint_forcing, allow_zero=True)
+    whole("--inner-iterations", args.inner_iterations, 1)
+    whole("--checkpoint-every", args.checkpoint_every, 1)
+    whole("--max-iterations", args.max_iterations, 0)
+    from seamfit.commands.grade import _strength_overrides
+    _strength_overrides(args)
+
+
+def _accuracy(args, result) -> dict | None:
+    """With --truth: the landmark errors `seamfit grade --truth` reports."""
+    if args.truth is None:
+        return None
+    from seamfit.pattern import load_pattern
+    from seamfit.pattern.compare import baseline_errors, landmark_errors
+    truth = load_pattern(args.truth)
+    base = load_pattern(args.pattern)
+    return {"truth": str(args.truth), "graded": landmark_errors(result.result.pattern, truth).to_dict(),
+            "base_unchanged": baseline_errors(base, truth).to_dict()}
+
+
+def run(argv: list[str]) -> int:
+    global _quiet
+    pre = _prefix_options(argv)
+    _quiet = pre.quiet
+    if pre.help and "bpy" not in sys.modules:
+        try:
+            import bpy  # noqa: F401
+        except ImportError:
+            print(__doc__)
+            return 0
+    module = _prepare_blender(pre.addon_zip)
+    args = build_parser().parse_args(argv)
     if args.out.exists() and not args.out.is_dir():
-        fail(f"{args.out}: exists and is not a folder")
-    module = _prepare_blender(args.addon_zip)
+        raise Failed(f"{args.out}: exists and is not a folder")
     import importlib
     import bpy
 
@@ -168,23 +232,25 @@ def main() -> int:
     inputs = {"pattern": str(args.pattern), "base_body": str(args.base_body),
               "target_body": str(args.target_body)}
     try:
+        _check_options(args)
         # Opened before the grading: a folder that would be refused is refused at once.
-        with OutputSet(args.out, inputs=list(inputs.values()), force=args.force) as tmp:
+        with OutputSet(args.out, inputs=[*inputs.values(), args.truth], force=args.force) as tmp:
             result = _grade(bpy, addon, s, args)
-            try:
-                written = addon.compute.write_grade_files(tmp, result, picture=not args.no_picture, inputs=inputs)
-            except addon.compute.user_errors() as exc:
-                fail(str(exc))
+            extra = _accuracy(args, result)
+            written = addon.compute.write_grade_files(tmp, result, picture=not args.no_picture, inputs=inputs,
+                                                      extra=None if extra is None else {"accuracy": extra})
             # Blender writes the .blend next to the target and renames it into place.
             bpy.ops.wm.save_as_mainfile(filepath=str((tmp / "graded.blend").resolve()), check_existing=False,
                                         copy=True)
-    except SeamfitError as exc:
-        fail(str(exc))
+    except (SeamfitError, *addon.compute.user_errors()) as exc:
+        raise Failed(str(exc)) from None
     for path in [*written, tmp / "graded.blend"]:
-        print(f"batch_grade: wrote {args.out / path.name}")
+        say(f"wrote {args.out / path.name}")
     r = result.report
-    print(f"batch_grade: {r['method']}: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} in "
-          f"{r['outer_iterations']} iterations ({r['message']})")
+    say(f"{r['method']}: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} in "
+        f"{r['outer_iterations']} iterations ({r['message']})")
+    for w in result.warnings:
+        print(f"batch_grade: warning: {w}", file=sys.stderr)
     return 1 if args.fail_unconverged and not result.converged else 0
 
 
@@ -199,11 +265,32 @@ def _grade(bpy, addon, s, args):
             bpy.ops.seamfit.drape()
         bpy.ops.seamfit.adjust()
     except RuntimeError as exc:       # an operator's error report
-        fail(str(exc).removeprefix("Error: ").strip())
+        raise Failed(str(exc).removeprefix("Error: ").strip()) from None
     return addon.solve.last_result("adjust")
+
+
+def main() -> int:
+    try:
+        return run(_argv())
+    except Failed as exc:
+        print(f"batch_grade: error: {exc}", file=sys.stderr)
+        return exc.code
+    except KeyboardInterrupt:
+        print("batch_grade: interrupted (SIGINT)", file=sys.stderr)
+        return 130
+    except SystemExit as exc:       # argparse: --help (0) or a usage error (2)
+        return exc.code if isinstance(exc.code, int) else 2
+    except Exception as exc:
+        if os.environ.get("SEAMFIT_TRACEBACK") == "1":
+            raise
+        print(f"batch_grade: internal error: {exc!r} (run with SEAMFIT_TRACEBACK=1 for the traceback)",
+              file=sys.stderr)
+        return 3
+    finally:
+        _cleanup()
 
 
 if __name__ == "__main__":
     code = main()
-    if code:
+    if code:        # in Blender, exiting with 0 here would also skip its later command-line arguments
         sys.exit(code)

@@ -2,22 +2,23 @@
 scan, a character, a decimated or remeshed body), so that it has the vertex-to-vertex
 correspondence grading needs.
 
-Three stages (docs/bodies.md, "Registration"):
+Four stages (docs/bodies.md, "Registration"):
 
 1. Checks (``check_registrable``), cheap and first: a mesh in other units, on another up
    axis (a Y-up body as Blender's OBJ importer leaves a Z-up file), facing another way,
-   not closed, or in another pose than the template's standing A-pose gets a one-line
+   not closed, or wider or deeper than the template's standing A-pose gets a one-line
    error naming the reason and the fix.
-2. Measurements first: the scan's height, bust, waist and hip, taken by
-   ``seamfit.body.measure`` as on any mesh, are met by the body model (hm08,
-   ``from_measurements``); its minimum-girth waist is turned into the model's natural
-   waist by the difference between the two on the model's own body, corrected once.
-   A template of another mesh than hm08 is scaled to the scan's height and girths instead.
-3. A non-rigid surface fit: each template vertex is pulled to its closest point on the
+2. Measurements first: the scan's height, bust and hip, taken by ``seamfit.body.measure``
+   as on any mesh, are met by the body model (hm08, ``from_measurements``).
+3. The model's shape on the surface: every macro and local modifier, and a translation,
+   fitted to the scan by bounded Gauss-Newton on point-to-plane distances. Much of the
+   scan far from this body means another pose: refused before the costly stage 4.
+   A template of another mesh than hm08 is scaled to the scan's height and hip instead.
+4. A non-rigid surface fit: each template vertex is pulled to its closest point on the
    scan, and each point of the scan pulls its nearest template vertex (so that no part of
-   the scan is left uncovered); the template's displacement is kept smooth by a
-   bi-Laplacian term whose weight falls from stiff to supple over the iterations.
-   Matches farther than a few cm, or whose normals disagree, are dropped.
+   the scan is left uncovered); the displacement is kept smooth by a bi-Laplacian term
+   whose weight falls from stiff to supple over the rounds. Matches farther than a few
+   cm, or whose normals disagree, are dropped.
 
 The result is reported with its error: the mean and the largest distance from the
 registered body's vertices to the scan's surface, and back (mm).

@@ -23,7 +23,7 @@ layer  what
 
 Mapping to sewpat-1 (docs/formats.md, "DXF"): the seam line becomes the panel outline, in
 cm; every vertex of the DXF polyline is kept, and points are added on its straight
-segments so that samples are at most 1 cm apart. Edges are fitted between corners: a
+segments longer than 1.5 cm so that samples are at most 1 cm apart there. Edges are fitted between corners: a
 ``line`` where the run is straight, otherwise ``cubic`` curves, each within
 ``FIT_TOL_CM`` of the polyline's vertices (a run that one cubic cannot follow is split).
 Notches become outline vertices listed in the panel's ``notches``; the grain line, drill
@@ -54,7 +54,10 @@ UNITS_CM = {"in": 2.54, "mm": 0.1, "cm": 1.0, "m": 100.0}
 _INSUNITS = {1: "in", 4: "mm", 5: "cm", 6: "m"}
 _UNITS_CODE = {v: k for k, v in _INSUNITS.items()}
 
-SAMPLE_SPACING_CM = 1.0          # outline samples at most this far apart (sewpat-1's rule)
+SAMPLE_SPACING_CM = 1.0          # outline samples at most this far apart (sewpat-1's rule) ...
+# ... where the file's segments are longer than this: a graded outline, stretched a little
+# past 1 cm between samples, reads back with the same points
+SPLIT_ABOVE_CM = 1.5
 # Edge fit: every DXF vertex within 0.05 mm of its edge's curve, half the 0.1 mm a round
 # trip may move a point; and the curve within 0.5 mm (refit's tolerance) of the midpoints
 # of the polyline's segments, so that a curve does not wander between sparse vertices.
@@ -559,7 +562,8 @@ def build_panel_geometry(raw: np.ndarray, corner_hints: list[int], node_hints: l
     for i in range(n):
         new_index[i] = len(pts)
         a, b = raw[i], raw[(i + 1) % n]
-        m = max(1, math.ceil(float(np.linalg.norm(b - a)) / SAMPLE_SPACING_CM - 1e-9))
+        seg = float(np.linalg.norm(b - a))
+        m = max(1, math.ceil(seg / SAMPLE_SPACING_CM - 1e-9)) if seg > SPLIT_ABOVE_CM else 1
         for j in range(m):
             pts.append(a + (b - a) * (j / m))
     outline = np.array(pts)
@@ -704,14 +708,22 @@ def _panel(piece: _Piece, k: int, scale: float, unit: str, unit_from: str, path:
                 best = (float(d[j]), li, j, int(seg[j]), float(frac[j]))
         dist, li, j, seg, frac = best
         if dist > NOTCH_ON_LINE_CM:
-            raise PatternError(f"{where}: a notch (layer 4) at ({ends[0][0] * 10 / 10:.1f}, {ends[0][1]:.1f}) cm "
+            raise PatternError(f"{where}: a notch (layer 4) at ({ends[0][0]:.1f}, {ends[0][1]:.1f}) cm "
                                f"is {dist * 10:.1f} mm from the piece's outline")
         base = ends[j]
-        # on the cut line or the seam line: the nearest point of the seam line
-        _, seg_a, frac_a = _dist_to_polyline(base[None, :], raw)
-        seg, frac = int(seg_a[0]), float(frac_a[0])
+        tip = pts[-1] if j == 0 else pts[0]
+        q = None
+        if li == 1 and len(pts) > 1:
+            # cut into the cutting line: where the notch, carried on, meets the seam line
+            q = _ray_hit(base, (tip - base) / max(float(np.linalg.norm(tip - base)), 1e-12), raw)
+        if q is None:
+            _, seg_a, frac_a = _dist_to_polyline(base[None, :], raw)
+            seg, frac = int(seg_a[0]), float(frac_a[0])
+            q = raw[seg] + frac * (raw[(seg + 1) % len(raw)] - raw[seg])
+        else:
+            _, seg_a, _ = _dist_to_polyline(q[None, :], raw)
+            seg = int(seg_a[0])
         a, b = raw[seg], raw[(seg + 1) % len(raw)]
-        q = a + frac * (b - a)
         if np.linalg.norm(q - a) <= 1e-3:
             vi = seg
         elif np.linalg.norm(q - b) <= 1e-3:
@@ -723,9 +735,9 @@ def _panel(piece: _Piece, k: int, scale: float, unit: str, unit_from: str, path:
         depth = float(np.linalg.norm(pts[-1] - pts[0])) if len(pts) > 1 else None
         angle = None
         if len(pts) > 1:
-            tip = pts[-1] if j == 0 else pts[0]
+            # against the outline's direction at the notch (as the writer measures it)
             dv = tip - base
-            tang = b - a
+            tang = raw[(vi + 1) % len(raw)] - raw[vi - 1]
             angle = round(math.degrees(math.atan2(tang[0] * dv[1] - tang[1] * dv[0], float(tang @ dv))), 6)
         notch_at.append((vi, depth or DEFAULT_NOTCH_DEPTH_CM, angle, ntype))
 
@@ -913,8 +925,8 @@ def build_dxf(pattern: Pattern, *, flavor: str = "aama", units: str = "mm",
         for p in panel.extra.get("drill_holes_cm") or []:
             blk.add_point((p[0] * k, p[1] * k), dxfattribs={"layer": "13"})
         _piece_text(blk, panel, o, k, flavor)
-        ins = dxf.get("insert_cm")
-        if ins is None:                            # lay pieces out left to right, 5 cm apart
+        ins = dxf.get("insert_cm") or ([0.0, 0.0] if "block" in dxf else None)
+        if ins is None:                            # not from a DXF: pieces left to right, 5 cm apart
             lo, hi = o.min(axis=0), o.max(axis=0)
             ins = [x_cursor - lo[0], -lo[1]]
             x_cursor += float(hi[0] - lo[0]) + 5.0
@@ -955,11 +967,6 @@ def _notches(blk, panel: Panel, o: np.ndarray, cut: np.ndarray | None, k: float)
         tang = o[(i + 1) % n] - o[i - 1]
         tang = tang / max(float(np.linalg.norm(tang)), 1e-12)
         inward = np.array([-tang[1], tang[0]]) * (1.0 if _area(o) > 0 else -1.0)
-        base = o[i]
-        if cut is not None:                    # notches are cut into the cutting line
-            hit = _ray_hit(o[i], -inward, cut)
-            if hit is not None:
-                base = hit
         depth = float(notch.get("depth_cm") or DEFAULT_NOTCH_DEPTH_CM)
         ang = notch.get("angle_deg")
         if ang is not None:
@@ -967,11 +974,17 @@ def _notches(blk, panel: Panel, o: np.ndarray, cut: np.ndarray | None, k: float)
             direc = np.array([tang[0] * math.cos(a) - tang[1] * math.sin(a), tang[0] * math.sin(a) + tang[1] * math.cos(a)])
         else:
             direc = inward
+        base = o[i]
+        if cut is not None:                    # cut into the cutting line, in line with the seam vertex
+            hit = _ray_hit(o[i], -direc, cut)
+            back = _ray_hit(o[i] - 1e-6 * direc, -direc, o)
+            # not where the seam line itself comes first (inside a dart's opening)
+            if hit is not None and (back is None or np.linalg.norm(back - o[i]) > np.linalg.norm(hit - o[i])):
+                base = hit
         tip = base + depth * direc
         layer = {v: key for key, v in _NOTCH_TYPES.items()}.get(notch.get("type", "slit"), "4")
-        blk.add_line((base[0] * k, base[1] * k), (tip[0] * k, tip[1] * k), dxfattribs={"layer": "4"})
-        if layer != "4":
-            blk.add_line((base[0] * k, base[1] * k), (tip[0] * k, tip[1] * k), dxfattribs={"layer": layer})
+        # slits on layer 4, the other kinds on ASTM's notch-type layers 80-83
+        blk.add_line((base[0] * k, base[1] * k), (tip[0] * k, tip[1] * k), dxfattribs={"layer": layer})
 
 
 def _ray_hit(p: np.ndarray, d: np.ndarray, poly: np.ndarray) -> np.ndarray | None:

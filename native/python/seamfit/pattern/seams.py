@@ -91,8 +91,9 @@ def propose_stitches(pattern: Pattern) -> list[dict[str, Any]]:
     Each run is used once; the best-scored pairs go first. The score is the length
     difference as a fraction of the run, lowered when the notches of both sides line up
     (read towards each other, as right sides together are sewn: ``reversed``) and raised
-    when they do not, or when the two panels are copies of each other (the left and right
-    of one piece share every length, yet are seldom sewn edge to edge)."""
+    when they do not, when the two panels are copies of each other (the left and right
+    of one piece share every length, yet are seldom sewn edge to edge) or when both runs
+    are on one panel."""
     runs = [(p, r) for p in pattern.panels for r in _runs(p) if r[2] >= MIN_RUN_CM]
     cands = []
     for x in range(len(runs)):
@@ -118,6 +119,9 @@ def propose_stitches(pattern: Pattern) -> list[dict[str, Any]]:
             if pa is not pb and _congruent(pa, pb):
                 score += 0.1
                 why.append("the panels are copies of each other")
+            elif pa is pb:                       # a sleeve's underarm, but mostly chance
+                score += 0.1
+                why.append("both on one panel")
             cands.append((score, x, y, "; ".join(why)))
     cands.sort(key=lambda c: (c[0], c[1], c[2]))
     used: set[int] = set()

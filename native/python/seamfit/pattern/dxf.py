@@ -35,7 +35,6 @@ sidecar JSON file.
 """
 from __future__ import annotations
 
-import copy
 import hashlib
 import math
 import re
@@ -1032,6 +1031,3 @@ def _piece_text(blk, panel: Panel, o: np.ndarray, k: float, flavor: str) -> None
         blk.add_text(panel.name, height=h * k,
                      dxfattribs={"layer": "15", "insert": (at[0] * k, (at[1] + 1.5 * h) * k)})
 
-
-def copy_for_write(pattern: Pattern) -> Pattern:
-    return copy.deepcopy(pattern)

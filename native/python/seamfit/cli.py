@@ -14,7 +14,7 @@ import sys
 from .errors import SeamfitError
 
 # Subcommand modules under seamfit.commands, in the order --help lists them.
-COMMANDS = ("validate", "convert", "body", "mesh", "sdf", "drape", "grade")
+COMMANDS = ("validate", "convert", "body", "mesh", "sdf", "drape", "grade", "grade_run")
 
 
 def build_parser() -> argparse.ArgumentParser:

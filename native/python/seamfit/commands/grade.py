@@ -46,21 +46,28 @@ See docs/method.md for the method, docs/grading.md for the baselines and docs/cl
 
 
 def register(subparsers) -> None:
-    from ..opt.grade import METHODS, STARTS, GradeSettings
-    from ..opt.presets import PRESETS
-    d = GradeSettings()
     p = subparsers.add_parser(
         "grade", help="adjust a base pattern to a new body (pattern, nest SVG, drape, report)",
         description="Compute the pattern that makes the garment fit TARGET the way the base pattern "
                     "fits BASE (rule-free grading and made-to-measure).",
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("pattern", metavar="PATTERN", type=Path, help="base pattern (sewpat-1 or GarmentCode .json)")
+    p.add_argument("pattern", metavar="PATTERN", type=Path, help="base pattern (sewpat-1, GarmentCode .json or .dxf)")
     p.add_argument("--base-body", metavar="B0", type=Path, required=True,
                    help="body the base pattern fits (.obj/.ply, metres, Z up, facing -Y)")
     p.add_argument("--target-body", metavar="B1", type=Path, required=True,
                    help="body to grade to: the base body's mesh in another shape, or any body mesh (a scan, "
                         "a character), which is registered onto the base body's mesh first")
     p.add_argument("--out", metavar="DIR", type=Path, required=True, help="output folder (created if missing)")
+    add_grade_options(p, truth=True)
+    p.set_defaults(func=run)
+
+
+def add_grade_options(p, *, truth: bool) -> None:
+    """The search, mesh, field, device and output options, defined once for ``grade`` and
+    ``grade-run`` (``truth``: also --truth, a pattern drafted for the one target)."""
+    from ..opt.grade import METHODS, STARTS, GradeSettings
+    from ..opt.presets import PRESETS
+    d = GradeSettings()
     p.add_argument("--method", choices=METHODS, default=d.method,
                    help=f"search: {', '.join(METHODS)} (default {d.method}; the other two are baselines "
                         "for comparison, see below)")
@@ -93,8 +100,9 @@ def register(subparsers) -> None:
     p.add_argument("--max-iterations", metavar="N", type=int, default=d.max_outer_iterations,
                    help=f"outer iteration budget (default {d.max_outer_iterations})")
     p.add_argument("--time-budget", metavar="S", type=float, default=0.0, help="stop after S seconds (default: none)")
-    p.add_argument("--truth", metavar="PATTERN", type=Path, default=None,
-                   help="a pattern drafted for the target body: report landmark errors against it")
+    if truth:
+        p.add_argument("--truth", metavar="PATTERN", type=Path, default=None,
+                       help="a pattern drafted for the target body: report landmark errors against it")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto",
                    help="where the grading loop runs (default auto: the GPU when one is present and the garment "
                         "is large enough to pay); cuda fails at once with the reason when no GPU or CUDA build "
@@ -104,33 +112,20 @@ def register(subparsers) -> None:
                         "(default %(default)s; 0: to 1e-8 everywhere, as the CPU's direct solve, 4x slower "
                         "at 60K triangles, docs/gpu.md)")
     p.add_argument("--fail-unconverged", action="store_true",
-                   help="exit 1 when the search stopped at its budget before converging (the results are "
+                   help="exit 1 when a search stopped at its budget before converging (the results are "
                         "still written); default: exit 0 whenever the results are written")
     p.add_argument("--no-picture", action="store_true", help="do not write drape.png and pattern.png")
     add_force_argument(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from ..device import resolve_device
-    from ..opt.grade import GradeSettings
-    from ..opt.presets import preset
     from ..pattern import load_pattern
-    from .checks import checked_body, checked_pattern, number, whole
+    from .checks import checked_body, checked_pattern
 
-    resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
     out = Path(args.out)
     # Options, inputs and --truth are checked before any meshing, drape or search.
-    number("--edge-length", args.edge_length)
-    number("--sdf-spacing", args.sdf_spacing)
-    number("--sdf-margin", args.sdf_margin, allow_zero=True)
-    number("--time-budget", args.time_budget, allow_zero=True)
-    number("--adjoint-forcing", args.adjoint_forcing, allow_zero=True)
-    whole("--inner-iterations", args.inner_iterations, 1)
-    whole("--checkpoint-every", args.checkpoint_every, 1)
-    whole("--max-iterations", args.max_iterations, 0)
-    overrides = _strength_overrides(args)
+    check_grade_options(args)
 
     def warn(message: str) -> None:
         if not args.quiet:
@@ -146,18 +141,7 @@ def run(args) -> int:
     base_body = checked_body(args.base_body, warn)
     target_body = checked_body(args.target_body, warn)
     target_body, registration = _registered_target(args, base_body, target_body)
-    strengths = preset(args.preset, base_pattern.garment_type).strengths
-    if overrides:
-        from dataclasses import replace
-        strengths = replace(strengths, **overrides)
-    settings = GradeSettings(preset=args.preset, strengths=strengths, method=args.method, start=args.start,
-                             edge_length_cm=args.edge_length,
-                             sdf_spacing=args.sdf_spacing, sdf_region=args.sdf_region,
-                             sdf_region_margin=args.sdf_margin, inner_iterations=args.inner_iterations,
-                             checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,
-                             time_budget_s=args.time_budget, device=args.device,
-                             adjoint_forcing=args.adjoint_forcing)
-    settings.validate()
+    settings = settings_from_args(args, base_pattern)
     # Named stages, the share done and the time left: a bar on a terminal, plain lines in
     # a log (seamfit.progress); -q: none.
     from ..progress import ConsoleProgress, for_grading
@@ -182,6 +166,42 @@ def run(args) -> int:
     return 1 if args.fail_unconverged and not report["converged"] else 0
 
 
+def check_grade_options(args) -> None:
+    """The options of :func:`add_grade_options`, checked before any input is read."""
+    from ..device import resolve_device
+    from .checks import number, whole
+    resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
+    number("--edge-length", args.edge_length)
+    number("--sdf-spacing", args.sdf_spacing)
+    number("--sdf-margin", args.sdf_margin, allow_zero=True)
+    number("--time-budget", args.time_budget, allow_zero=True)
+    number("--adjoint-forcing", args.adjoint_forcing, allow_zero=True)
+    whole("--inner-iterations", args.inner_iterations, 1)
+    whole("--checkpoint-every", args.checkpoint_every, 1)
+    whole("--max-iterations", args.max_iterations, 0)
+    _strength_overrides(args)
+
+
+def settings_from_args(args, base_pattern):
+    """The GradeSettings the options of :func:`add_grade_options` ask for, validated."""
+    from dataclasses import replace
+    from ..opt.grade import GradeSettings
+    from ..opt.presets import preset
+    strengths = preset(args.preset, base_pattern.garment_type).strengths
+    overrides = _strength_overrides(args)
+    if overrides:
+        strengths = replace(strengths, **overrides)
+    settings = GradeSettings(preset=args.preset, strengths=strengths, method=args.method, start=args.start,
+                             edge_length_cm=args.edge_length,
+                             sdf_spacing=args.sdf_spacing, sdf_region=args.sdf_region,
+                             sdf_region_margin=args.sdf_margin, inner_iterations=args.inner_iterations,
+                             checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,
+                             time_budget_s=args.time_budget, device=args.device,
+                             adjoint_forcing=args.adjoint_forcing)
+    settings.validate()
+    return settings
+
+
 def _strength_overrides(args) -> dict:
     """--fix ... --seam as given, each checked as the strengths themselves check it; --fix
     also > 0: R^fix shapes the search's preconditioner, which needs it positive definite."""
@@ -203,7 +223,7 @@ def _strength_overrides(args) -> dict:
     return overrides
 
 
-def _registered_target(args, base_body, target_body):
+def _registered_target(args, base_body, target_body, *, command: str = "grade"):
     """The target on the base body's mesh: itself when it shares that mesh, else registered
     onto it (seamfit.body.register; its checks fail at once, before any fitting)."""
     from ..body.register import check_registrable, same_topology, target_for
@@ -211,12 +231,12 @@ def _registered_target(args, base_body, target_body):
         return target_body, None
     check_registrable(target_body)
     if not args.quiet:
-        print(f"seamfit grade: {args.target_body} has another mesh than the base body ({target_body.n_vertices} "
+        print(f"seamfit {command}: {args.target_body} has another mesh than the base body ({target_body.n_vertices} "
               f"vertices, {base_body.n_vertices} in {args.base_body}): registering the base body's mesh onto it",
               file=sys.stderr)
     body, reg = target_for(base_body, target_body)
     if not args.quiet:
-        print(f"seamfit grade: registered: {reg.mean_mm:.1f} mm mean, {reg.max_mm:.1f} mm max from the target's "
+        print(f"seamfit {command}: registered: {reg.mean_mm:.1f} mm mean, {reg.max_mm:.1f} mm max from the target's "
               f"surface ({reg.seconds:.1f} s)", file=sys.stderr)
     return body, reg
 
@@ -224,12 +244,19 @@ def _registered_target(args, base_body, target_body):
 def _grade(args, settings, progress, base_pattern, base_body, target_body, truth, tmp: Path,
            registration=None) -> dict:
     """Grade, then write the set into ``tmp`` (moved to --out afterwards); the report."""
+    from ..opt.grade import grade
+    result = grade(base_pattern, base_body, target_body, settings, progress=progress)
+    return write_graded(args, result, progress, base_pattern, base_body, target_body, truth, tmp, registration)
+
+
+def write_graded(args, result, progress, base_pattern, base_body, target_body, truth, tmp: Path,
+                 registration=None, *, extra_report: dict | None = None) -> dict:
+    """What ``seamfit grade`` writes for one graded result, into the folder ``tmp``; the
+    report (``extra_report`` added to it: a size run's entries)."""
     from ..fileio import atomic_write_text, json_default
     from ..mesh import write_obj
-    from ..opt.grade import grade
     from ..pattern import save_pattern, write_svg
 
-    result = grade(base_pattern, base_body, target_body, settings, progress=progress)
     if progress is not None:
         progress.enter("writing")
     report = dict(result.report)
@@ -237,6 +264,7 @@ def _grade(args, settings, progress, base_pattern, base_body, target_body, truth
                         "target_body": str(args.target_body)}
     if registration is not None:        # the target the grading used: the base mesh fitted onto it
         report["registration"] = registration.report()
+    report.update(extra_report or {})
     if truth is not None:
         from ..pattern.compare import landmark_errors
         truth_pattern, base_unchanged = truth

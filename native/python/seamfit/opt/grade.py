@@ -17,12 +17,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
+import numpy as np
+
 from ..errors import SolveError
 from ..pattern import Pattern
 from ..sim.model import Fabric, SimSettings
 from .baselines import fixed_point, two_phase
 from .costs import Strengths
 from .descent import descend
+from .device_arrays import host
 from .initialize import initialize_pattern
 from .objective import Objective
 from .output import GradeResult, SearchOutcome, finish, remove_panel_rotations
@@ -128,11 +131,18 @@ def algorithm1(ctx) -> SearchOutcome:
     ctx.tell(stage="initialize")
     init = initialize_pattern(ctx.mesh, ctx.xbar, ctx.xtilde, ctx.strengths, param=ctx.param,
                               regularizers=ctx.regs, seam=ctx.seam, theta0=ctx.extra.get("theta_level"))
+    theta0 = init.theta
+    warm = ctx.extra.get("warm_start")
+    if warm is not None:
+        # A neighbouring size's search moved its pattern from its own initialization by
+        # roughly what this size needs too: start from this initialization plus that move.
+        theta0 = init.theta + (np.asarray(warm["theta"], float) - np.asarray(warm["theta_init"], float))
     ctx.tell(stage="initial drape")
-    r0 = ctx.exact(init.theta, ctx.xtilde, "initial drape")
-    out = descend(ctx, ctx.objective, init.theta, r0.x)
+    r0 = ctx.exact(theta0, ctx.xtilde, "initial drape")
+    out = descend(ctx, ctx.objective, theta0, r0.x)
     out.initialization = {"objective_history": [float(v) for v in init.history.get("objective", [])][-1:],
-                          "message": init.message}
+                          "message": init.message, "warm_start": warm is not None}
+    ctx.extra["theta_init"] = np.array(init.theta, dtype=float)
     return out
 
 
@@ -141,16 +151,22 @@ SEARCHES = {"adjoint": algorithm1, "two-phase": two_phase, "fixed-point": fixed_
 
 def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings | None = None, *,
           fabric: Fabric | None = None, sim_settings: SimSettings | None = None,
-          progress: ProgressFn | None = None) -> GradeResult:
+          progress: ProgressFn | None = None, warm_start: dict | None = None,
+          shared: dict | None = None) -> GradeResult:
     """Adjust ``base_pattern`` (fitting ``base_body``) to ``target_body`` with
     ``settings.method``.
 
     progress(info) is called with a dict (stage, outer iteration, objective, ...);
-    returning False cancels (SolveError "cancelled")."""
+    returning False cancels (SolveError "cancelled"). For a size run (seamfit.opt.size_run):
+    ``warm_start`` is a neighbouring size's ``GradeResult.warm_start`` (adjoint method only)
+    and ``shared`` a dict kept across the run's calls, holding what depends only on the base
+    (mesh, base field and drape, base ease)."""
     settings = settings or GradeSettings()
     settings.validate()
     ctx = prepare(base_pattern, base_body, target_body, settings, fabric=fabric, sim_settings=sim_settings,
-                  progress=progress)
+                  progress=progress, shared=shared)
+    if warm_start is not None and settings.method == "adjoint":
+        ctx.extra["warm_start"] = warm_start
     outcome = SEARCHES[settings.method](ctx)
     ctx.tell(stage="refit")    # the pattern's curves refitted, the checks and the report
     result = finish(ctx, settings.method, outcome)
@@ -159,4 +175,6 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
     fields = ctx.extra["sdf"]
     warning = garment_outside_field(ctx.target_sdf, fields["target"], result.x, "target", "of the result")
     result.report["sdf"] = {**fields, **({"warning": warning} if warning else {})}
+    if "theta_init" in ctx.extra:
+        result.warm_start = {"theta_init": ctx.extra["theta_init"], "theta": np.array(host(outcome.theta), dtype=float)}
     return result

@@ -47,6 +47,8 @@ class GradeResult:
     mesh: object
     report: dict
     history: dict = field(default_factory=dict)
+    # Adjoint method: its initialization and final parameters, a neighbouring size's warm start
+    warm_start: Optional[dict] = None
 
 
 def remove_panel_rotations(mesh, uv_new_cm: np.ndarray) -> tuple[np.ndarray, dict]:
@@ -91,7 +93,13 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
     refit = refit_pattern(ctx.base_pattern, outlines)
     checks = output_checks(ctx.base_pattern, refit.pattern)
 
-    ease_base = ease_report(ctx.base_body, ctx.xbar, mesh.triangles)
+    shared = ctx.extra.get("shared")
+    if shared is not None and "ease_base" in shared:
+        ease_base = shared["ease_base"]
+    else:
+        ease_base = ease_report(ctx.base_body, ctx.xbar, mesh.triangles)
+        if shared is not None:
+            shared["ease_base"] = ease_base
     ease_result = ease_report(ctx.target_body, out.x, mesh.triangles)
     gaps = sim.sewing_gaps(out.x)
     phi = sim.phi(out.x)

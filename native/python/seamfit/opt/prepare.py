@@ -126,9 +126,12 @@ class GradeContext:
 
 
 def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: Fabric | None = None,
-            sim_settings: SimSettings | None = None, progress: ProgressFn | None = None) -> GradeContext:
+            sim_settings: SimSettings | None = None, progress: ProgressFn | None = None,
+            shared: dict | None = None) -> GradeContext:
     """Mesh, SDFs, x-bar, x-tilde and the grading objective; with
-    ``settings.evaluate_base_pattern`` also the objective of the unchanged pattern on the target."""
+    ``settings.evaluate_base_pattern`` also the objective of the unchanged pattern on the target.
+    ``shared``: a dict kept across the calls of one size run (same base pattern, base body,
+    settings and fabric), holding what depends only on the base."""
     from ..body import check_body
 
     t_start = time.perf_counter()
@@ -140,9 +143,16 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         if progress is not None and progress(info) is False:
             raise SolveError("cancelled")
 
+    def once(key, make):
+        if shared is None:
+            return make()
+        if key not in shared:
+            shared[key] = make()
+        return shared[key]
+
     check_pattern(base_pattern)
     tell(stage="mesh")
-    mesh = build_sewn_mesh(base_pattern, edge_length_cm=settings.edge_length_cm)
+    mesh = once("mesh", lambda: build_sewn_mesh(base_pattern, edge_length_cm=settings.edge_length_cm))
     # Where the simulations and the adjoint solve run; the costs and df/dp stay on the CPU.
     # A GPU pays only on large garments (seamfit.device.GPU_MIN_VERTICES).
     device = resolve_device(getattr(settings, "device", "auto"), problem_size=int(mesh.n_vertices))
@@ -155,9 +165,9 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     margin = getattr(settings, "sdf_region_margin", GARMENT_REGION_MARGIN)
     base_region = resolve_sdf_region(region, base_body, settings.sdf_spacing)
     target_region = resolve_sdf_region(region, target_body, settings.sdf_spacing)
-    base_sdf, base_field = body_field(
+    base_sdf, base_field = once("base_field", lambda: body_field(
         base_body, settings.sdf_spacing, base_region, margin=margin,
-        z_range=placement_z_range(mesh, base_pattern, base_body) if base_region == "garment" else None)
+        z_range=placement_z_range(mesh, base_pattern, base_body) if base_region == "garment" else None))
     if target_region == "body":
         target_sdf, target_field = body_field(target_body, settings.sdf_spacing, "body")
     else:
@@ -168,9 +178,9 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     def drape_progress(it, res):
         return None if progress is None else progress({"stage": "base drape", "sim_iteration": it, "residual": res})
 
-    xbar, base_info = base_drape(mesh, base_pattern, base_body, base_sdf, fabric, sim_settings,
-                                 progress=drape_progress,
-                                 accept_unsettled=getattr(settings, "accept_unsettled_base", False))
+    xbar, base_info = once("base_drape", lambda: base_drape(
+        mesh, base_pattern, base_body, base_sdf, fabric, sim_settings, progress=drape_progress,
+        accept_unsettled=getattr(settings, "accept_unsettled_base", False)))
     problem = garment_outside_field(base_sdf, base_field, xbar, "base", "at the end of the base drape")
     if problem:
         if not base_info.get("cached"):
@@ -227,6 +237,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         exact_tolerance=exact_tolerance, progress=progress, t_start=t_start)
     ctx.extra["sdf"] = {"requested": region, "base": base_field, "target": target_field}
     ctx.extra["theta_level"] = theta_level
+    ctx.extra["shared"] = shared
     if settings.evaluate_base_pattern:
         rb = ctx.start_from_base_pattern()
         ctx.objective_base, ctx.terms_base = ctx.objective.objective(rb.x, param.theta_bar)

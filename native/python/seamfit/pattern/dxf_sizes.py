@@ -1,0 +1,206 @@
+"""A graded size run in DXF-ASTM: every size in one file, and the base with grade rules.
+
+Two forms (docs/formats.md, "Size runs in DXF"):
+
+* ``write_size_run_dxf``: the multi-size form. One block per piece and size, each with its
+  ``Size:`` text, all sizes of a piece inserted on one spot, aligned at the piece's
+  bounding-box top-centre (the nest pattern makers check): the base size black (colour 7),
+  the others in colour. The header's ``Sample Size:`` names the base.
+* ``write_graded_dxf``: the base size only, with a grade-rule number (``# n`` text, layer 1)
+  at each grade point (every edge end, corner and landmark), and the RUL table beside it:
+  per rule, each size's move (x, y) of that point from the base size, in the drawing's
+  units, in the same top-centre frame. Points that move alike share a rule.
+"""
+from __future__ import annotations
+
+import copy
+import io
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import PatternError
+from ..fileio import atomic_write_bytes, atomic_write_text
+from .dxf import UNITS_CM, build_dxf
+from .model import Pattern
+
+BASE_COLOR = 7                       # AutoCAD colour index: black on a white sheet
+SIZE_COLORS = (1, 5, 3, 6, 30, 4, 140, 200, 40, 90)   # red, blue, green, magenta, orange, cyan, ...
+GAP_CM = 5.0
+RULE_DIGITS = 3                      # moves rounded to 0.001 drawing units before rules are shared
+
+
+def _anchor(o: np.ndarray) -> np.ndarray:
+    return np.array([0.5 * (o[:, 0].min() + o[:, 0].max()), o[:, 1].max()])
+
+
+def _check(patterns: Sequence[Pattern], labels: Sequence[str], base_index: int, where: str) -> None:
+    if len(patterns) != len(labels) or not 0 <= base_index < len(patterns):
+        raise PatternError(f"{where}: {len(patterns)} patterns, {len(labels)} size names, base at {base_index}")
+    names = [p.name for p in patterns[base_index].panels]
+    for lab, pat in zip(labels, patterns):
+        if [p.name for p in pat.panels] != names:
+            raise PatternError(f"{where}: size {lab} has other pieces than the base "
+                               f"({', '.join(p.name for p in pat.panels)} against {', '.join(names)})")
+
+
+def _write(doc, path: Path) -> Path:
+    buf = io.StringIO()
+    doc.write(buf)
+    return atomic_write_bytes(Path(path), buf.getvalue().encode(doc.output_encoding, errors="dxfreplace"))
+
+
+def write_size_run_dxf(path, patterns: Sequence[Pattern], labels: Sequence[str], base_index: int, *,
+                       units: str = "mm") -> Path:
+    """Every size of a graded run in one DXF-ASTM file (see the module's text)."""
+    path = Path(path)
+    _check(patterns, labels, base_index, str(path))
+    base = patterns[base_index]
+    # Each piece's place on the sheet: wide enough for its largest size, left to right.
+    slots, x = {}, 0.0
+    for k, panel in enumerate(base.panels):
+        lo = np.full(2, np.inf)
+        hi = -lo
+        for pat in patterns:
+            o = np.asarray(pat.panels[k].outline_cm, dtype=float)
+            rel = o - _anchor(o)
+            lo, hi = np.minimum(lo, rel.min(axis=0)), np.maximum(hi, rel.max(axis=0))
+        slots[panel.name] = np.array([x - lo[0], 0.0])
+        x += float(hi[0] - lo[0]) + GAP_CM
+    merged = copy.deepcopy(base)
+    merged.panels, merged.stitches = [], []
+    header = dict((merged.extra.get("dxf") or {}).get("header") or {})
+    header["sample_size"] = labels[base_index]
+    merged.extra["dxf"] = {**(merged.extra.get("dxf") or {}), "header": header}
+    colors = []
+    order = [base_index] + [k for k in range(len(patterns)) if k != base_index]
+    for j, k in enumerate(order):
+        for panel in patterns[k].panels:
+            p = copy.deepcopy(panel)
+            o = np.asarray(p.outline_cm, dtype=float)
+            dxf = dict(p.extra.get("dxf") or {}) if isinstance(p.extra.get("dxf"), dict) else {}
+            dxf.pop("texts", None)
+            dxf["block"] = f"{panel.name} {labels[k]}"
+            dxf["insert_cm"] = (slots[panel.name] - _anchor(o)).tolist()
+            p.extra["dxf"] = dxf
+            p.extra["size"] = labels[k]
+            merged.panels.append(p)
+            colors.append(BASE_COLOR if k == base_index else SIZE_COLORS[(j - 1) % len(SIZE_COLORS)])
+    doc = build_dxf(merged, flavor="astm", units=units, name=path.name)
+    inserts = list(doc.modelspace().query("INSERT"))
+    for ref, color in zip(inserts, colors):
+        for e in doc.blocks.get(ref.dxf.name):
+            e.dxf.color = color
+    return _write(doc, path)
+
+
+def grade_points(panel) -> list[int]:
+    """Outline indices a grade rule is attached to: edge ends, corners and landmarks."""
+    pts = set(int(i) for i in panel.nodes) | set(int(i) for i in panel.corners)
+    for idx in panel.landmarks.values():
+        for i in (idx if isinstance(idx, (list, tuple)) else [idx]):
+            pts.add(int(i))
+    n = len(panel.outline_cm)
+    return sorted(i for i in pts if 0 <= i < n)
+
+
+def grade_rules(patterns: Sequence[Pattern], labels: Sequence[str], base_index: int, *,
+                units: str = "mm") -> tuple[list[np.ndarray], dict[str, dict[int, int]]]:
+    """The rule table and which rule each grade point follows: (rules, {panel: {vertex: rule}}).
+    rules[r] is (sizes, 2): each size's move of the point from the base size, in ``units``,
+    with each panel's copies aligned at their top-centre. Equal moves share one rule
+    (number r + 1 in the files)."""
+    _check(patterns, labels, base_index, "grade rules")
+    k_units = 1.0 / UNITS_CM[units]
+    base = patterns[base_index]
+    rules: list[np.ndarray] = []
+    index: dict[tuple, int] = {}
+    points: dict[str, dict[int, int]] = {}
+    for j, panel in enumerate(base.panels):
+        ob = np.asarray(panel.outline_cm, dtype=float)
+        rel_b = ob - _anchor(ob)
+        points[panel.name] = {}
+        moves = []
+        for pat in patterns:
+            o = np.asarray(pat.panels[j].outline_cm, dtype=float)
+            if len(o) != len(ob):
+                raise PatternError(f"grade rules: piece {panel.name!r} has {len(o)} outline points in one size "
+                                   f"and {len(ob)} in the base; grade rules need the same points")
+            moves.append((o - _anchor(o)) - rel_b)
+        moves = np.stack(moves, axis=1) * k_units          # (n, sizes, 2)
+        for i in grade_points(panel):
+            m = np.round(moves[i], RULE_DIGITS) + 0.0       # + 0.0: no negative zeros
+            key = tuple(m.ravel().tolist())
+            if key not in index:
+                index[key] = len(rules)
+                rules.append(m)
+            points[panel.name][i] = index[key]
+    return rules, points
+
+
+def format_rul(rules: Sequence[np.ndarray], labels: Sequence[str], base_index: int, *, name: str,
+               units: str = "mm") -> str:
+    """The grade-rule table as ASTM D6673's RUL text: header, the size list and sample size,
+    then each rule's (x, y) move per size from the sample size."""
+    lines = ["ASTM/D13Proposal 1 VERSION: D 13.4",
+             "PRODUCT: seamfit",
+             f"GRADE RULE TABLE: {name}",
+             f"NUMBER OF SIZES: {len(labels)}",
+             "SIZE LIST: " + " ".join(str(lab).replace(" ", "_") for lab in labels),
+             f"SAMPLE SIZE: {str(labels[base_index]).replace(' ', '_')}",
+             f"UNITS: {'METRIC' if units == 'mm' else 'ENGLISH'}"]
+    for r, m in enumerate(rules):
+        lines.append(f"RULE: DELTA {r + 1}")
+        lines.append(" ".join(f"{dx:.{RULE_DIGITS}f},{dy:.{RULE_DIGITS}f}" for dx, dy in m))
+    lines.append("END")
+    return "\r\n".join(lines) + "\r\n"
+
+
+def parse_rul(text: str) -> dict:
+    """Read back a RUL table written by :func:`format_rul`: sizes, sample size, units and
+    rules (number -> (sizes, 2) array)."""
+    out: dict = {"rules": {}}
+    current = None
+    for raw in text.splitlines():
+        line = raw.strip()
+        if not line or line == "END":
+            continue
+        key, sep, value = line.partition(":")
+        if sep and key == "SIZE LIST":
+            out["sizes"] = value.split()
+        elif sep and key == "SAMPLE SIZE":
+            out["sample_size"] = value.strip()
+        elif sep and key == "UNITS":
+            out["units"] = value.strip()
+        elif sep and key == "RULE":
+            current = int(value.split()[-1])
+        elif current is not None and "," in line:
+            out["rules"][current] = np.array([[float(v) for v in pair.split(",")] for pair in line.split()])
+            current = None
+    return out
+
+
+def write_graded_dxf(path, rul_path, patterns: Sequence[Pattern], labels: Sequence[str], base_index: int, *,
+                     units: str = "mm") -> tuple[Path, Path]:
+    """The base size as DXF-ASTM with a ``# n`` grade-rule text at each grade point, and its
+    RUL table at ``rul_path`` (see the module's text)."""
+    path, rul_path = Path(path), Path(rul_path)
+    rules, points = grade_rules(patterns, labels, base_index, units=units)
+    base = copy.deepcopy(patterns[base_index])
+    header = dict((base.extra.get("dxf") or {}).get("header") or {})
+    header["sample_size"] = labels[base_index]
+    base.extra["dxf"] = {**(base.extra.get("dxf") or {}), "header": header}
+    for panel in base.panels:
+        panel.extra["size"] = labels[base_index]
+    doc = build_dxf(base, flavor="astm", units=units, name=path.name)
+    k_units = 1.0 / UNITS_CM[units]
+    for panel, ref in zip(base.panels, doc.modelspace().query("INSERT")):
+        blk = doc.blocks.get(ref.dxf.name)
+        o = np.asarray(panel.outline_cm, dtype=float)
+        h = 0.3 * k_units
+        for i, r in points[panel.name].items():
+            blk.add_text(f"# {r + 1}", height=h, dxfattribs={"layer": "1", "insert": (o[i, 0] * k_units, o[i, 1] * k_units)})
+    _write(doc, path)
+    atomic_write_text(rul_path, format_rul(rules, labels, base_index, name=path.stem, units=units))
+    return path, rul_path

@@ -12,7 +12,9 @@ import numpy as np
 from ..mesh import outline_from_uv
 from ..pattern import Pattern
 from ..pattern.checks import output_checks
+from ..pattern.markings import carry_markings
 from ..pattern.refit import refit_pattern
+from ..pattern.symmetry import find_symmetries, symmetrize, symmetry_report
 from .fit import ease_report
 
 
@@ -90,7 +92,11 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
     uv_raw = 100.0 * param.pattern(out.theta)
     uv_new, rotations = remove_panel_rotations(mesh, uv_raw)
     outlines = outline_from_uv(mesh, uv_new)
+    # Symmetric panels and left/right pairs of the base stay so (docs/grading.md, "Symmetry").
+    symmetries = find_symmetries(ctx.base_pattern)
+    symmetry_moves = symmetrize(outlines, symmetries)
     refit = refit_pattern(ctx.base_pattern, outlines)
+    markings = carry_markings(ctx.base_pattern, refit.pattern, mesh, uv_new)
     checks = output_checks(ctx.base_pattern, refit.pattern)
 
     shared = ctx.extra.get("shared")
@@ -141,6 +147,8 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
         "refit": {"ok": refit.ok, "max_deviation_mm": refit.max_deviation_overall_mm,
                   "failed": [list(map(str, f_)) for f_ in refit.failed], "notes": refit.notes},
         "panel_rotation_removed_deg": rotations,
+        "symmetry": symmetry_report(refit.pattern, symmetries, symmetry_moves),
+        "markings": markings,
         "ease_cm": {"base": ease_base, "result": ease_result},
         "drape": {"max_sewing_gap_mm": float(gaps.max() * 1000) if len(gaps) else 0.0,
                   "min_phi_mm": float(phi.min() * 1000)},

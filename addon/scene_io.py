@@ -234,12 +234,24 @@ def pattern_from_collection(coll):
     return pattern
 
 
-def remove_collection(coll) -> None:
+def remove_collection(coll, foreign_to=None) -> None:
     """Delete a collection made by seamfit, its child collections and the data only they
-    used (the shared stretch material stays)."""
+    used (the shared stretch material stays). Objects and collections the user put in it
+    are moved to ``foreign_to`` (the collection replacing it), or else to the scene."""
+    keep_in = foreign_to if foreign_to is not None else bpy.context.scene.collection
     for child in list(coll.children):
-        remove_collection(child)
+        if "seamfit_name" in child or ROLE_KEY in child:
+            remove_collection(child, foreign_to)
+        else:
+            coll.children.unlink(child)
+            if child.name not in keep_in.children:
+                keep_in.children.link(child)
     for obj in list(coll.objects):
+        if "seamfit_name" not in obj and PANEL_KEY not in obj and "seamfit_panels" not in obj:
+            coll.objects.unlink(obj)
+            if obj.name not in keep_in.objects:
+                keep_in.objects.link(obj)
+            continue
         data = obj.data
         bpy.data.objects.remove(obj)
         if data is not None and data.users == 0:
@@ -292,7 +304,7 @@ def place_result(context, slot: str, inputs_key: str, name: str, build, keep: bo
         if keep:
             del old[SLOT_KEY]
         else:
-            remove_collection(old)
+            remove_collection(old, foreign_to=coll)
             # The names the old result held are free now.
             for c in [coll, *coll.children_recursive]:
                 c.name = c.get("seamfit_name", c.name)
@@ -452,9 +464,9 @@ def color_stretch(obj, scene=None) -> tuple[float, float, float] | None:
     obj.data.update()
     obj["seamfit_stretch"] = {"span_pct": span, "min_pct": float(strain.min()), "max_pct": float(strain.max()),
                               "measure": s.stretch_measure}
-    legend = obj.get("seamfit_legend")
-    if legend and legend in bpy.data.objects:
-        _update_legend(bpy.data.objects[legend], span, s.stretch_measure)
+    legend = legend_of(obj)
+    if legend is not None:
+        _update_legend(legend, span, s.stretch_measure)
     return span, float(strain.min()), float(strain.max())
 
 
@@ -480,6 +492,8 @@ def _legend_text(name: str, text: str, size: float, made: list, coll, parent, lo
     cu.size = size
     cu.align_x = align
     cu.align_y = "CENTER"
+    # The stretch material reads a colour attribute text has none of: black text, no other material.
+    cu.materials.append(stretch_material())
     obj = _new_object(name, cu, made)
     _link(coll, obj, made)
     obj.parent = parent
@@ -503,7 +517,6 @@ def _legend_object(name: str, garment, coll, made: list) -> bpy.types.Object:
     me.materials.append(stretch_material())
     obj = _new_object(name, me, made)
     _link(coll, obj, made)
-    lo, hi = np.array(garment.bound_box).min(axis=0), np.array(garment.bound_box).max(axis=0)
     m = np.array(garment.matrix_world)
     corners = np.array(garment.bound_box) @ m[:3, :3].T + m[:3, 3]
     lo, hi = corners.min(axis=0), corners.max(axis=0)
@@ -514,8 +527,17 @@ def _legend_object(name: str, garment, coll, made: list) -> bpy.types.Object:
     for child in obj.children:
         child.rotation_euler = (np.pi / 2, 0.0, 0.0)    # upright, readable from the front
     obj["seamfit_legend_of"] = garment.get("seamfit_name", garment.name)
-    garment["seamfit_legend"] = obj.name
     return obj
+
+
+def legend_of(garment):
+    """The legend object of a garment (in its collection), or None."""
+    name = garment.get("seamfit_name", garment.name)
+    for coll in garment.users_collection:
+        for obj in coll.objects:
+            if obj.get("seamfit_legend_of") == name:
+                return obj
+    return None
 
 
 def _update_legend(obj, span: float, measure: str) -> None:
@@ -567,7 +589,11 @@ def build_sewn(context, out, name: str, made: list) -> bpy.types.Collection:
     coll[PATTERN_KEY] = out.pattern_json
     coll[ROLE_KEY] = "drape"
     coll.seamfit.role = "mesh"
-    _link(coll, garment_mesh(name, out.garment, made), made)
+    obj = garment_mesh(name, out.garment, made)
+    _link(coll, obj, made)
+    if out.garment.stretch is not None:
+        obj["seamfit_stretch"] = {}
+        color_stretch(obj)
     return coll
 
 

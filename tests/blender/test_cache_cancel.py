@@ -46,6 +46,8 @@ def test_disk_cache_lives_in_blenders_user_folder(installed):
 
 def test_clear_cache_clears_the_disk_and_the_limit_holds(setup):
     prefs = bpy.context.preferences.addons[MODULE].preferences
+    bpy.ops.seamfit.clear_cache()       # what earlier tests left
+    assert _disk() == []
     assert bpy.ops.seamfit.drape() == {"FINISHED"}
     setup.sdf_spacing_mm = 6.0
     assert bpy.ops.seamfit.drape() == {"FINISHED"}

@@ -104,7 +104,15 @@ def test_batch_script_takes_the_method(scene):
     script = _batch_script()
     base = [str(PENCIL), "--base-body", str(BODY_BASE), "--target-body", str(BODY_TARGET), "--out", "o"]
     parser = script.build_parser()
-    assert parser.parse_args(base).method is None        # the add-on's default, adjoint
+    assert parser.parse_args(base).method == "adjoint"   # seamfit grade's default, the add-on's too
+    # Every option of seamfit grade, from its own definition.
+    import argparse
+    from seamfit.commands import grade
+    subs = argparse.ArgumentParser().add_subparsers()
+    grade.register(subs)
+    theirs = {o for a in subs.choices["grade"]._actions for o in a.option_strings}
+    ours = {o for a in parser._actions for o in a.option_strings}
+    assert theirs <= ours and ours - theirs == {"--addon-zip", "--drape"}
     for name, key in (("two-phase", "TWO_PHASE"), ("fixed-point", "FIXED_POINT"), ("adjoint", "ADJOINT")):
         args = parser.parse_args([*base, "--method", name])
         script._apply_settings(scene.seamfit, args, addon())

@@ -66,7 +66,7 @@ def test_legend_in_the_viewport_and_in_renders(draped):
     assert item["low"] == f"-{span:g} %" and item["high"] == f"+{span:g} %"
     # The render legend: a colour bar in the result's collection, beside the garment, with
     # its range written on it; it renders with the same material.
-    legend = bpy.data.objects[garment["seamfit_legend"]]
+    legend = addon().scene_io.legend_of(garment)
     assert legend.name in coll.objects and not legend.hide_render
     assert legend.data.materials[0] == garment.data.materials[0]
     texts = sorted(c.data.body for c in legend.children)
@@ -79,6 +79,14 @@ def test_legend_in_the_viewport_and_in_renders(draped):
     s.stretch_span_pct = 25.0
     assert sorted(c.data.body for c in legend.children) == sorted(["-25 %", "+25 %", "Edge stretch (%)"])
     assert addon().overlay.legend_items(bpy.context.scene)[0]["high"] == "+25 %"
+    # A re-run that replaces the result keeps garment and legend together.
+    s.edge_length_cm = 5.0
+    assert bpy.ops.seamfit.drape() == {"FINISHED"}
+    (coll,) = [c for c in bpy.data.collections if c.seamfit.role == "drape"]
+    (garment,) = [o for o in coll.objects if o.type == "MESH" and "stretch_ratio" in o.data.attributes]
+    legend = addon().scene_io.legend_of(garment)
+    s.stretch_span_pct = 20.0
+    assert sorted(c.data.body for c in legend.children) == sorted(["-20 %", "+20 %", "Edge stretch (%)"])
     # Hidden garments have no legend in the viewport.
     garment.hide_set(True)
     assert addon().overlay.legend_items(bpy.context.scene) == []
@@ -100,7 +108,7 @@ def test_principal_strains_in_percent(draped):
     # Shown on request, with a legend saying so.
     s.stretch_measure = "PRINCIPAL"
     assert garment["seamfit_stretch"]["measure"] == "PRINCIPAL"
-    assert "Largest principal strain (%)" in [c.data.body for c in bpy.data.objects[garment["seamfit_legend"]].children]
+    assert "Largest principal strain (%)" in [c.data.body for c in addon().scene_io.legend_of(garment).children]
 
 
 def _outside_distances(points, tree):

@@ -251,6 +251,28 @@ def test_seam_allowance_on_export_mitred_and_squared(tmp_path):
         assert q.outline_cm[notch["vertex"]] == pytest.approx(pn.outline_cm[pn.extra["notches"][0]["vertex"]])
 
 
+def test_notches_cut_into_the_cut_line_come_back_on_their_vertices(tmp_path):
+    # A notch written into the cutting line runs, carried on, through its seam-line vertex
+    # exactly; rounding can put that crossing a hair past both segments meeting there, and
+    # the ray then went on to the far side of the piece and added an outline point there.
+    doc = ezdxf.new("R2000")
+    doc.header["$INSUNITS"] = 5
+    doc.blocks.new("P").add_lwpolyline([(0.3, 0.1), (40.7, 0.18387), (40.2, 20.3), (0.1, 19.9)], close=True,
+                                       dxfattribs={"layer": "1"})
+    doc.modelspace().add_blockref("P", (0, 0))
+    doc.saveas(tmp_path / "p.dxf")
+    p = read_dxf_file(tmp_path / "p.dxf").pattern
+    (pn,) = p.panels
+    pn.extra["notches"] = [{"vertex": v, "type": "slit", "depth_cm": 0.6}
+                           for v in range(len(pn.outline_cm)) if v not in pn.corners]
+    assert len(pn.extra["notches"]) > 100
+    out = tmp_path / "p.aama.dxf"
+    write_dxf(p, out, seam_allowance_cm=1.0)
+    q = read_dxf_file(out).pattern.panels[0]
+    np.testing.assert_allclose(q.outline_cm, pn.outline_cm, atol=1e-9)
+    assert [x["vertex"] for x in q.extra["notches"]] == [x["vertex"] for x in pn.extra["notches"]]
+
+
 def test_square_corners_cut_a_sharp_corner_short(tmp_path):
     doc = ezdxf.new("R2000")
     doc.header["$INSUNITS"] = 5                         # cm: a right triangle, two 45 deg corners

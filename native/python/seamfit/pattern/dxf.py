@@ -986,8 +986,13 @@ def _notches(blk, panel: Panel, o: np.ndarray, cut: np.ndarray | None, k: float)
         blk.add_line((base[0] * k, base[1] * k), (tip[0] * k, tip[1] * k), dxfattribs={"layer": layer})
 
 
+_RAY_T_EPS = 1e-9                # fraction of a segment: a crossing at a vertex counts on both sides
+
+
 def _ray_hit(p: np.ndarray, d: np.ndarray, poly: np.ndarray) -> np.ndarray | None:
-    """First crossing of the ray p + s d (s > 0) with a closed polyline."""
+    """First crossing of the ray p + s d (s > 0) with a closed polyline, its vertices
+    included: a notch's ray runs through the seam (or cut) line's vertex by construction,
+    and rounding may put that crossing a hair past the end of both segments meeting there."""
     a, b = poly, np.roll(poly, -1, axis=0)
     e = b - a
     den = d[0] * e[:, 1] - d[1] * e[:, 0]
@@ -995,7 +1000,7 @@ def _ray_hit(p: np.ndarray, d: np.ndarray, poly: np.ndarray) -> np.ndarray | Non
     w = a - p
     s = np.where(ok, (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / np.where(ok, den, 1.0), np.inf)
     t = np.where(ok, (w[:, 0] * d[1] - w[:, 1] * d[0]) / np.where(ok, den, 1.0), -1.0)
-    good = ok & (s > 0) & (t >= 0) & (t <= 1)
+    good = ok & (s > 0) & (t >= -_RAY_T_EPS) & (t <= 1.0 + _RAY_T_EPS)
     if not np.any(good):
         return None
     j = int(np.argmin(np.where(good, s, np.inf)))

@@ -505,7 +505,7 @@ def _legend_object(name: str, garment, coll, made: list) -> bpy.types.Object:
     """A colour bar beside the garment, upright and facing the front (-Y), with its range
     written under it: the legend of the stretch map in renders as in the viewport."""
     n = 21
-    w, h = 0.30, 0.03
+    w, h, text = 0.30, 0.04, 0.035
     xs = np.linspace(-0.5 * w, 0.5 * w, n)
     verts = [(x, 0.0, z) for x in xs for z in (0.0, h)]
     faces = [(2 * i, 2 * i + 2, 2 * i + 3, 2 * i + 1) for i in range(n - 1)]
@@ -520,10 +520,11 @@ def _legend_object(name: str, garment, coll, made: list) -> bpy.types.Object:
     m = np.array(garment.matrix_world)
     corners = np.array(garment.bound_box) @ m[:3, :3].T + m[:3, 3]
     lo, hi = corners.min(axis=0), corners.max(axis=0)
-    obj.location = (hi[0] + 0.05 + 0.5 * w, lo[1], 0.5 * (lo[2] + hi[2]))
-    _legend_text(f"{name} low", "", 0.025, made, coll, obj, (-0.5 * w, 0.0, -0.025))
-    _legend_text(f"{name} high", "", 0.025, made, coll, obj, (0.5 * w, 0.0, -0.025))
-    _legend_text(f"{name} title", "", 0.025, made, coll, obj, (0.0, 0.0, h + 0.025))
+    # Clear of the garment and of an arm hanging beside it: right of it, low.
+    obj.location = (hi[0] + 0.25 + 0.5 * w, lo[1], lo[2] + 0.25 * (hi[2] - lo[2]))
+    _legend_text(f"{name} low", "", text, made, coll, obj, (-0.5 * w, 0.0, -text))
+    _legend_text(f"{name} high", "", text, made, coll, obj, (0.5 * w, 0.0, -text))
+    _legend_text(f"{name} title", "", text, made, coll, obj, (0.0, 0.0, h + text))
     for child in obj.children:
         child.rotation_euler = (np.pi / 2, 0.0, 0.0)    # upright, readable from the front
     obj["seamfit_legend_of"] = garment.get("seamfit_name", garment.name)

@@ -116,16 +116,13 @@ def main():
         coll.hide_render = True
         tubes.hide_render = True
         scene.seamfit.edge_length_cm = 2.0
-        bpy.ops.seamfit.drape()
-        # Display only: a 2 cm mesh lying 1 mm off the body dips into it between its vertices.
-        for obj in bpy.data.collections[f"{coll.name} on {body.name}"].objects:
-            obj.modifiers.new("offset", "DISPLACE").strength = 0.004
+        bpy.ops.seamfit.drape()     # drawn as the extension draws it: outside the body, with its legend
         _render(scene, "blender_drape.png")
 
 
 
 def _emission_material(name, rgba):
-    """Flat colour whatever the light: the nest reads like a drawing."""
+    """Flat colour whatever the light: the compare view reads like a drawing."""
     mat = bpy.data.materials.new(name)
     if bpy.app.version < (5, 0, 0):
         mat.use_nodes = True
@@ -135,97 +132,6 @@ def _emission_material(name, rgba):
     em.inputs["Color"].default_value = rgba
     nt.links.new(em.outputs["Emission"], out.inputs["Surface"])
     return mat
-
-
-def _outline_copy(obj, coll, mat, radius, z):
-    """A copy of a panel curve lying flat at the origin, drawn as a tube along its points."""
-    cu = obj.data.copy()
-    cu.dimensions = "3D"
-    cu.fill_mode = "FULL"
-    cu.bevel_depth = radius
-    cu.materials.clear()
-    cu.materials.append(mat)
-    copy = bpy.data.objects.new(f"{obj.name} outline", cu)
-    copy.location.z = z
-    coll.objects.link(copy)
-    return copy
-
-
-def _curve_points(obj):
-    sp = obj.data.splines[0]
-    co = [0.0] * (4 * len(sp.points))
-    sp.points.foreach_get("co", co)
-    return [(co[i], co[i + 1]) for i in range(0, len(co), 4)]
-
-
-def _text(coll, body, size, location, mat, align="CENTER"):
-    cu = bpy.data.curves.new(body, "FONT")
-    cu.body = body
-    cu.size = size
-    cu.align_x = align
-    cu.align_y = "CENTER"
-    cu.materials.append(mat)
-    obj = bpy.data.objects.new(body, cu)
-    obj.location = location
-    coll.objects.link(obj)
-    return obj
-
-
-def _nest(scene, base, graded):
-    """Lay the base and graded panel curves out flat, one slot per panel, each copy anchored
-    at the middle of its top edge (as seamfit's SVG nest does), rows left to right."""
-    nest = bpy.data.collections.new("nest")
-    scene.collection.children.link(nest)
-    dark = _emission_material("base outline", (0.02, 0.02, 0.02, 1.0))
-    orange = _emission_material("graded outline", (0.67, 0.11, 0.0, 1.0))    # #d55e00, the SVG nest's
-    grey = _emission_material("label", (0.25, 0.25, 0.25, 1.0))
-    key = "seamfit_panel"
-    graded_by_panel = {o[key]: o for o in graded.objects if o.type == "CURVE"}
-    base_line, graded_line = 0.0030, 0.0018     # base drawn wider, so it shows under the graded
-    slots = []      # (panel, [(curve, material, radius, z, anchor)], extent left/bottom/right of the anchor)
-    for obj in sorted((o for o in base.objects if o.type == "CURVE"), key=lambda o: o[key]):
-        copies, lo_x, lo_y, hi_x = [], 0.0, 0.0, 0.0
-        layers = ((obj, dark, base_line, 0.0), (graded_by_panel[obj[key]], orange, graded_line, 0.01))
-        for src, mat, radius, z in layers:
-            xs, ys = zip(*_curve_points(src))
-            anchor = (0.5 * (min(xs) + max(xs)), max(ys))
-            copies.append((src, mat, radius, z, anchor))
-            lo_x, hi_x = min(lo_x, min(xs) - anchor[0]), max(hi_x, max(xs) - anchor[0])
-            lo_y = min(lo_y, min(ys) - anchor[1])
-        slots.append((obj[key], copies, (lo_x, lo_y, hi_x)))
-    slots.sort(key=lambda s: s[2][1])      # tallest first: the skirt pieces in a row, the waistbands below
-    gap, row_width = 0.06, 1.3
-    x, y, row_h, width = 0.0, 0.0, 0.0, 0.0
-    for name, copies, (lo_x, lo_y, hi_x) in slots:
-        w, h = hi_x - lo_x, -lo_y
-        if x > 0.0 and x + w > row_width:
-            x, y, row_h = 0.0, y - row_h - gap, 0.0
-        origin = (x - lo_x, y)
-        for src, mat, radius, z, anchor in copies:
-            copy = _outline_copy(src, nest, mat, radius, z)
-            copy.location.x = origin[0] - anchor[0]
-            copy.location.y = origin[1] - anchor[1]
-        # A narrow panel (a waistband) gets its name under it, not across its outline.
-        label_y = y - 0.5 * h if h > 0.15 else y - h - 0.035
-        _text(nest, name, 0.035, (origin[0], label_y, 0.02), grey)
-        x += w + gap
-        row_h = max(row_h, h)
-        width = max(width, x - gap)
-    bottom = y - row_h - 0.06      # room for the names under the last row
-    # Legend above the sheet.
-    for k, (label, mat) in enumerate(((f"base ({scene.seamfit.base_body.name})", dark),
-                                      (f"graded ({scene.seamfit.target_body.name})", orange))):
-        lx, ly = 0.02 + 0.5 * k * width, 0.09
-        stroke = bpy.data.curves.new("legend", "CURVE")
-        stroke.dimensions = "3D"
-        stroke.bevel_depth = base_line if k == 0 else graded_line
-        sp = stroke.splines.new("POLY")
-        sp.points.add(1)
-        sp.points.foreach_set("co", [lx, ly, 0.0, 1.0, lx + 0.08, ly, 0.0, 1.0])
-        stroke.materials.append(mat)
-        nest.objects.link(bpy.data.objects.new("legend", stroke))
-        _text(nest, label, 0.035, (lx + 0.11, ly, 0.0), grey, align="LEFT")
-    return (0.0, bottom, width, 0.12)
 
 
 def adjust_pictures():
@@ -248,16 +154,26 @@ def adjust_pictures():
     print(f"graded {graded.name}: objective {graded.seamfit.objective:.4g}, "
           f"{graded.seamfit.iterations} iterations, hip ease {graded.seamfit.fit.hip:+.1f} cm")
     for obj in list(base.objects) + list(graded.objects):
-        obj.hide_render = obj.type != "MESH" or "stretch_color" not in obj.data.color_attributes
-    for obj in graded.objects:
-        # Display only, as for the drape picture; the 3 cm mesh hugs the thighs, so it needs more.
-        if not obj.hide_render:
-            obj.modifiers.new("offset", "DISPLACE").strength = 0.008
+        # The garment and its legend; the panel curves around the body would hide it.
+        obj.hide_render = obj.type == "CURVE" and "seamfit_panel" in obj
+        if obj.type == "MESH" and "stitch" in obj.data.attributes and "panel" not in obj.data.attributes:
+            obj.hide_render = True
     _render(scene, "blender_adjust_drape.png")
 
     for obj in scene.objects:
         obj.hide_render = True
-    x0, y0, x1, y1 = _nest(scene, base, graded)
+    # The extension's compare view: each graded panel over its base, aligned at the top middle.
+    assert bpy.ops.seamfit.compare(collection=graded.name, layout="OVERLAY") == {"FINISHED"}
+    view = next(c for c in bpy.data.collections if c.seamfit.role == "compare")
+    base_copy, graded_copy = sorted(view.children, key=lambda c: c.name)
+    dark = _emission_material("base outline", (0.02, 0.02, 0.02, 1.0))
+    orange = _emission_material("graded outline", (0.67, 0.11, 0.0, 1.0))    # #d55e00, the SVG nest's
+    for copy, mat in ((base_copy, dark), (graded_copy, orange)):
+        for obj in copy.objects:
+            obj.hide_render = False
+            obj.data.materials.append(mat)
+    x0, y0, x1, y1 = view["seamfit_sheet"]
+    y1 += 0.05
     cam = scene.camera
     cam.hide_render = False
     cam.data.type = "ORTHO"

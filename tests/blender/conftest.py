@@ -6,7 +6,7 @@ version found (SEAMFIT_BPY_SUITE=1 marks that run; a plain `pytest tests` skips
 collecting it, since its own Python has no bpy). To run it by hand:
 
     SEAMFIT_BPY_SUITE=1 SEAMFIT_ADDON_ZIP=dist/seamfit-0.1.0.zip \
-        .venv-blender/bin/python -m pytest tests/blender
+        .venv-blender-5.0.1/bin/python -m pytest tests/blender
 """
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 """Render the pictures of docs/blender.md with the bpy module (Cycles on the CPU: no display
 or GPU needed). Not a test; run by hand:
 
-    SEAMFIT_ADDON_ZIP=dist/seamfit-0.1.0.zip .venv-blender/bin/python tests/blender/make_doc_pictures.py
+    SEAMFIT_ADDON_ZIP=dist/seamfit-0.1.0.zip .venv-blender-5.0.1/bin/python tests/blender/make_doc_pictures.py
 
 Writes docs/img/blender_pattern.png (an imported pattern around its body) and, with
 --drape, docs/img/blender_drape.png (the draped garment coloured by stretch ratio).

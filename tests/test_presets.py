@@ -16,8 +16,9 @@ def test_auto_picks_by_garment_kind(kind, name):
     assert preset("auto", kind) is PRESETS[name]
 
 
-def test_skirt_is_the_dress_without_the_positional_cost():
+def test_skirt_and_pants_are_the_dress_without_the_costs_that_hold_hanging_cloth():
     assert PRESETS["skirt"].strengths == replace(PRESETS["dress"].strengths, pos=0)
+    assert PRESETS["pants"].strengths == replace(PRESETS["dress"].strengths, pos=0, dis=0)
 
 
 def test_unknown_preset_names_the_choices():

@@ -256,6 +256,12 @@ class AdjointSolver:
         this solver's buffer, which is also the next solve's warm start."""
         if self._solve is None:
             raise SolveError("AdjointSolver.solve called before factorize")
+        # Name the input that is not finite: a bad right-hand side or garment state is a
+        # different defect from a solver breakdown.
+        if not all_finite(g):
+            raise SolveError("the adjoint solve was given a non-finite cost gradient dF/dx")
+        if self._x is not None and not all_finite(self._x):
+            raise SolveError("the adjoint solve was given a non-finite garment state x")
         t0 = time.perf_counter()
         if is_device(g) and self._solve == self._solve_gpu:
             lam = self._solve_gpu(g)

@@ -182,18 +182,9 @@ def _apply_settings(s, args, addon) -> None:
 
 
 def _check_options(args) -> None:
-    """The command line's own checks of its numbers, before anything is imported."""
-    from seamfit.commands.checks import number, whole
-    number("--edge-length", args.edge_length)
-    number("--sdf-spacing", args.sdf_spacing)
-    number("--sdf-margin", args.sdf_margin, allow_zero=True)
-    number("--time-budget", args.time_budget, allow_zero=True)
-    number("--adjoint-forcing", args.adjoint_forcing, allow_zero=True)
-    whole("--inner-iterations", args.inner_iterations, 1)
-    whole("--checkpoint-every", args.checkpoint_every, 1)
-    whole("--max-iterations", args.max_iterations, 0)
-    from seamfit.commands.grade import _strength_overrides
-    _strength_overrides(args)
+    """The command line's own checks of its numbers, before anything else is imported."""
+    from seamfit.commands.grade import check_grade_numbers
+    check_grade_numbers(args)
 
 
 def _accuracy(args, result) -> dict | None:

@@ -169,8 +169,14 @@ def run(args) -> int:
 def check_grade_options(args) -> None:
     """The options of :func:`add_grade_options`, checked before any input is read."""
     from ..device import resolve_device
-    from .checks import number, whole
     resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
+    check_grade_numbers(args)
+
+
+def check_grade_numbers(args) -> None:
+    """The numeric options of :func:`add_grade_options` (also the batch script's, which
+    resolves its device inside Blender)."""
+    from .checks import number, whole
     number("--edge-length", args.edge_length)
     number("--sdf-spacing", args.sdf_spacing)
     number("--sdf-margin", args.sdf_margin, allow_zero=True)

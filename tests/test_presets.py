@@ -18,7 +18,7 @@ def test_auto_picks_by_garment_kind(kind, name):
 
 def test_skirt_and_pants_are_the_dress_without_the_costs_that_hold_hanging_cloth():
     assert PRESETS["skirt"].strengths == replace(PRESETS["dress"].strengths, pos=0)
-    assert PRESETS["pants"].strengths == replace(PRESETS["dress"].strengths, pos=0, dis=0)
+    assert PRESETS["pants"].strengths == replace(PRESETS["dress"].strengths, pos=0, dis=0, smo=0)
 
 
 def test_unknown_preset_names_the_choices():

@@ -72,6 +72,8 @@ def main(argv=None) -> int:
             try:
                 rep = landmark_errors(level_scaled(base, ctx, b0, b1), truth)
                 row["level"], row["level_mean"], row["level_worst"] = rep.max_cm, rep.mean_cm, list(rep.worst)
+                # signed size bias: result minus truth, per panel (does the start under-grow?)
+                row["level_area_pct"] = {n: q.area_diff_pct for n, q in rep.panels.items()}
             except Exception as exc:  # noqa: BLE001 - a benchmark records, never stops
                 row["level"], row["error"] = None, f"{type(exc).__name__}: {exc}"
             row["seconds"] = time.perf_counter() - t0

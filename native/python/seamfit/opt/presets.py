@@ -64,11 +64,12 @@ PRESETS = {
     ),
     "pants": Preset(
         "pants",
-        Strengths(fix=100, cur=1e6, dis=0, smo=0.05, str=1, pos=0, seam=SEAM_STRENGTH),
-        "trousers and jumpsuits (legs and crotch): the dress's balance without the looseness and "
-        "positional costs, which would hold each hanging leg at its distance from a thigh and calf "
-        "that grew differently from the seat the leg is drafted from",
-        "Pants, Alana Jumpsuit, looseness and positional costs off (docs/method.md, 'The pants preset')",
+        Strengths(fix=100, cur=1e6, dis=0, smo=0, str=1, pos=0, seam=SEAM_STRENGTH),
+        "trousers and jumpsuits (legs and crotch): stretch only; the looseness and positional costs "
+        "would hold each hanging leg at its distance from a thigh and calf that grew differently from "
+        "the seat the leg is drafted from, and the smoothness cost the folds of a leg whose length "
+        "and shape changed",
+        "Pants, Alana Jumpsuit, looseness, positional and smoothness costs off (docs/method.md, 'The pants preset')",
     ),
 }
 PRESETS["bodysuit"] = PRESETS["fitted"]

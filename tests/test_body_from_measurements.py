@@ -247,3 +247,17 @@ def test_sample_measurement_files():
     chart = load_measurement_sets(folder / "size_chart.vst")
     assert [s.name for s in chart] == ["size38", "size40", "size42"]
     assert [s.cm["hip"] for s in chart] == pytest.approx([92, 96, 100])
+
+
+def test_parameters_round_trip_a_modifier_with_both_targets_on():
+    # A local modifier whose -incr and -decr targets are both on is kept as a pair by
+    # shape(); vector() must read that pair back, not fail on it.
+    from seamfit.body.made_to_measure import _Parameters
+    par = _Parameters("female", ["waist", "hip", "bust"])
+    assert par.locals, "the measurements must free at least one local modifier"
+    x = par.prior.copy()
+    m = par.locals[0]
+    x[par.names.index(m + "+")], x[par.names.index(m + "-")] = 0.3, 0.2
+    s = par.shape(x)
+    assert isinstance(s.local[m], tuple)
+    assert np.allclose(par.vector(s), x)

@@ -136,7 +136,10 @@ class _Parameters:
         values = {"weight": s.weight, "height": s.height, "cupsize": s.cupsize}
         for m in self.locals:
             v = s.local.get(m, 0.0)
-            values[m + "+"], values[m + "-"] = max(v, 0.0), max(-v, 0.0)
+            if isinstance(v, (tuple, list)):     # both targets on at once (see shape())
+                values[m + "+"], values[m + "-"] = float(v[0]), float(v[1])
+            else:
+                values[m + "+"], values[m + "-"] = max(v, 0.0), max(-v, 0.0)
         return np.array([values[n] for n in self.names])
 
     def shape(self, x: np.ndarray) -> ShapeParameters:

@@ -13,6 +13,7 @@ from ..mesh import outline_from_uv
 from ..pattern import Pattern
 from ..pattern.checks import output_checks
 from ..pattern.markings import carry_markings
+from ..pattern.darts import true_darts
 from ..pattern.refit import refit_pattern
 from ..pattern.symmetry import find_symmetries, symmetrize, symmetry_report
 from .fit import ease_report
@@ -95,6 +96,8 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
     # Symmetric panels and left/right pairs of the base stay so (docs/grading.md, "Symmetry").
     symmetries = find_symmetries(ctx.base_pattern)
     symmetry_moves = symmetrize(outlines, symmetries)
+    # Straight dart legs come out of the refit as their chords; true them first.
+    dart_moves = true_darts(ctx.base_pattern, outlines)
     refit = refit_pattern(ctx.base_pattern, outlines)
     markings = carry_markings(ctx.base_pattern, refit.pattern, mesh, uv_new)
     checks = output_checks(ctx.base_pattern, refit.pattern)
@@ -148,6 +151,7 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
                   "failed": [list(map(str, f_)) for f_ in refit.failed], "notes": refit.notes},
         "panel_rotation_removed_deg": rotations,
         "symmetry": symmetry_report(refit.pattern, symmetries, symmetry_moves),
+        "darts_trued_mm": {k: round(v, 3) for k, v in dart_moves.items()},
         "markings": markings,
         "ease_cm": {"base": ease_base, "result": ease_result},
         "drape": {"max_sewing_gap_mm": float(gaps.max() * 1000) if len(gaps) else 0.0,

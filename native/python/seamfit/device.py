@@ -15,24 +15,40 @@ def cuda_available() -> tuple[bool, str]:
     return True, ""
 
 
-def resolve_device(requested: str, *, problem_size: int = 0) -> str:
-    """'cpu' or 'cuda'. auto picks the CPU unless a GPU is present and would pay; cuda
-    fails at once with the reason when it cannot run."""
+def check_device(requested: str) -> None:
+    """Fails at once, with the reason, for an unknown device or a cuda that cannot run
+    here; measures nothing (the choice for auto waits for the garment's size)."""
     if requested not in ("auto", "cpu", "cuda"):
         raise DeviceError(f"unknown device {requested!r} (auto, cpu or cuda)")
-    if requested == "cpu":
-        return "cpu"
-    ok, why = cuda_available()
     if requested == "cuda":
+        ok, why = cuda_available()
         if not ok:
             raise DeviceError(f"--device cuda: {why}")
-        return "cuda"
-    return "cuda" if ok and problem_size >= GPU_MIN_VERTICES else "cpu"
 
 
-# From this many garment vertices up, auto takes the GPU. Measured on an H100
-# (docs/gpu.md, "Grading on the GPU"): at 5,458 vertices the grading's simulations ran 11x
-# faster than on the host's 16 CPU threads, and one simulator iteration at 5,304 vertices
-# took 21 us on an H200 against 243 us (docs/gpu_results.md); smaller garments were not measured, and
-# below a few thousand vertices the per-call transfers and graph captures are a larger share.
-GPU_MIN_VERTICES = 5000
+def resolve_device(requested: str, *, problem_size: int = 0) -> str:
+    """'cpu' or 'cuda'. auto picks the device predicted to run the simulator faster for a
+    garment of ``problem_size`` vertices (``choose_device``); cuda fails at once with the
+    reason when it cannot run."""
+    return choose_device(requested, problem_size=problem_size)["device"]
+
+
+def choose_device(requested: str, *, problem_size: int = 0) -> dict:
+    """The device and why: {"device", "requested", "reason"}, and for auto with a GPU the
+    predicted seconds per simulator iteration on each device and where that came from
+    (seamfit.device_calibration: measured once per machine and cached)."""
+    check_device(requested)
+    if requested != "auto":
+        return {"device": requested, "requested": requested, "reason": "asked for"}
+    ok, why = cuda_available()
+    if not ok:
+        return {"device": "cpu", "requested": requested, "reason": why}
+    from ._native import core
+    from .device_calibration import calibration, predicted_seconds_per_iteration
+    cal = calibration(str(core().cuda_device_name(0)))
+    t = predicted_seconds_per_iteration(cal, int(problem_size))
+    device = "cuda" if t["cuda"] < t["cpu"] else "cpu"
+    return {"device": device, "requested": requested,
+            "reason": (f"predicted {1e6 * t['cuda']:.0f} us per simulator iteration on the GPU against "
+                       f"{1e6 * t['cpu']:.0f} us on {cal['threads']} CPU threads at {int(problem_size)} vertices"),
+            "predicted_seconds_per_iteration": t, "calibration": cal["source"]}

@@ -87,10 +87,10 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from ..device import resolve_device
+    from ..device import check_device
     from .checks import checked_body, checked_pattern, number, whole
 
-    resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
+    check_device(args.device)  # fails at once, with the reason, when cuda cannot run here
     number("--edge-length", args.edge_length)
     number("--tolerance", args.tolerance)
     number("--sdf-spacing", args.sdf_spacing)
@@ -128,7 +128,7 @@ def run(args) -> int:
 def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -> int:
     """Mesh, dress and settle; write the set into ``tmp`` (moved to ``out`` afterwards)."""
     from ..body import build_sdf
-    from ..device import resolve_device
+    from ..device import choose_device
     from ..fileio import atomic_write_text
     from ..mesh import build_sewn_mesh, write_obj
     from ..sim import Fabric, SimSettings, Simulator
@@ -153,7 +153,8 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -
     fabric = Fabric(stretch_stiffness=args.stretch_stiffness, sewing_stiffness=args.sewing_stiffness,
                     bending_stiffness=args.bending_stiffness, density=args.density)
     # On the GPU, Newton's steps are solved by MINRES there (docs/gpu.md).
-    device = resolve_device(args.device, problem_size=int(mesh.n_vertices))
+    device_choice = choose_device(args.device, problem_size=int(mesh.n_vertices))
+    device = device_choice["device"]
     settings = SimSettings(method=args.method, tolerance=args.tolerance, mu=args.mu,
                            max_seconds=args.max_seconds, polish=not args.no_polish, device=device)
     if args.max_iterations is not None:
@@ -193,6 +194,7 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -
         "edge_length_cm": args.edge_length,
         "method": args.method,
         "device": device,
+        "device_choice": device_choice,
         "coarse_start": not args.no_coarse_start,
         "tolerance": args.tolerance,
         "setup_seconds": t_setup,

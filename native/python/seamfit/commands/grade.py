@@ -168,8 +168,8 @@ def run(args) -> int:
 
 def check_grade_options(args) -> None:
     """The options of :func:`add_grade_options`, checked before any input is read."""
-    from ..device import resolve_device
-    resolve_device(args.device)  # fails at once, with the reason, when cuda cannot run here
+    from ..device import check_device
+    check_device(args.device)  # fails at once, with the reason, when cuda cannot run here
     check_grade_numbers(args)
 
 

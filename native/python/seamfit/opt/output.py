@@ -117,6 +117,8 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
     report = {
         "method": method,
         "device": sim.settings.device,
+        # why that device (auto: the measured speeds of this machine, seamfit.device)
+        "device_choice": ctx.extra.get("device_choice"),
         # Where each part of the loop ran (the parametrization and the regularizers stay on
         # the CPU when their dense blocks / P^-1 would not fit in GPU memory, with the reason).
         "devices": {"simulation": sim.settings.device, "adjoint": ctx.adjoint.device,

@@ -11,7 +11,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..cache import cache_root, content_key, load_arrays, save_arrays
-from ..device import resolve_device
+from ..device import choose_device
 from ..errors import SolveError
 from ..mesh import build_sewn_mesh
 from ..pattern import Pattern, check_pattern
@@ -153,9 +153,10 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     check_pattern(base_pattern)
     tell(stage="mesh")
     mesh = once("mesh", lambda: build_sewn_mesh(base_pattern, edge_length_cm=settings.edge_length_cm))
-    # Where the simulations and the adjoint solve run; the costs and df/dp stay on the CPU.
-    # A GPU pays only on large garments (seamfit.device.GPU_MIN_VERTICES).
-    device = resolve_device(getattr(settings, "device", "auto"), problem_size=int(mesh.n_vertices))
+    # Where the simulations and the adjoint solve run: auto takes the device this machine
+    # was measured to run the simulator faster on at this size (seamfit.device).
+    device_choice = choose_device(getattr(settings, "device", "auto"), problem_size=int(mesh.n_vertices))
+    device = device_choice["device"]
     if device != sim_settings.device:
         sim_settings = replace(sim_settings, device=device)
     tell(stage="sdf")
@@ -237,6 +238,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         exact_tolerance=exact_tolerance, progress=progress, t_start=t_start)
     ctx.extra["sdf"] = {"requested": region, "base": base_field, "target": target_field}
     ctx.extra["theta_level"] = theta_level
+    ctx.extra["device_choice"] = device_choice
     ctx.extra["shared"] = shared
     if settings.evaluate_base_pattern:
         rb = ctx.start_from_base_pattern()

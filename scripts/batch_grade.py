@@ -36,7 +36,8 @@ HOW_TO_RUN = ("it needs Blender's Python: run `blender --background --python scr
 _SCENE_OPTIONS = {"method", "preset", "fix", "cur", "dis", "smo", "str", "pos", "seam", "edge_length",
                   "sdf_spacing", "inner_iterations", "checkpoint_every", "max_iterations", "device"}
 _GRADE_SETTINGS = {"start": "start", "sdf_region": "sdf_region", "sdf_margin": "sdf_region_margin",
-                   "time_budget": "time_budget_s", "adjoint_forcing": "adjoint_forcing"}
+                   "time_budget": "time_budget_s", "adjoint_forcing": "adjoint_forcing",
+                   "stop_move_mm": "stop_move_mm"}
 _temporary: list[str] = []
 _quiet = False
 

@@ -129,3 +129,29 @@ def test_accuracy_against_the_drafted_size_is_reported(graded):
     # the hand baseline on the same truth: the skirt scaled by the hip ratio
     scaled = acc["proportional_scaling"]
     assert np.isfinite(scaled["max_cm"]) and scaled["ratios"]["girth"] == "hip" and scaled["ratios"]["sx"] > 1.0
+
+
+def test_the_search_stops_once_the_pattern_stops_moving(tmp_path):
+    # With a threshold above any move a checkpoint can make, the first accepted checkpoint
+    # ends the search as converged; with 0 the rule never fires.
+    out = tmp_path / "moving"
+    code = main(["grade", str(PATTERN), "--base-body", str(B0), "--target-body", str(B1), "--out", str(out),
+                 "--edge-length", "5", "--sdf-spacing", "0.01", "--max-iterations", "8", "--checkpoint-every", "2",
+                 "--no-picture", "-q", "--stop-move-mm", "1000"])
+    rep = json.loads((out / "report.json").read_text())
+    assert code == 0 and rep["converged"]
+    assert "pattern stopped moving" in rep["message"]
+    assert rep["outer_iterations"] == 2           # the first checkpoint
+    out0 = tmp_path / "never"
+    main(["grade", str(PATTERN), "--base-body", str(B0), "--target-body", str(B1), "--out", str(out0),
+          "--edge-length", "5", "--sdf-spacing", "0.01", "--max-iterations", "8", "--checkpoint-every", "2",
+          "--no-picture", "-q", "--stop-move-mm", "0"])
+    assert "pattern stopped moving" not in json.loads((out0 / "report.json").read_text())["message"]
+
+
+def test_a_negative_stop_move_is_refused_before_any_work(tmp_path, capsys):
+    code = main(["grade", str(PATTERN), "--base-body", str(B0), "--target-body", str(B1),
+                 "--out", str(tmp_path / "x"), "--stop-move-mm", "-1"])
+    assert code == 2
+    assert "--stop-move-mm" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()

@@ -99,6 +99,9 @@ def add_grade_options(p, *, truth: bool) -> None:
                    help=f"exact simulation every M outer iterations (default {d.checkpoint_every})")
     p.add_argument("--max-iterations", metavar="N", type=int, default=d.max_outer_iterations,
                    help=f"outer iteration budget (default {d.max_outer_iterations})")
+    p.add_argument("--stop-move-mm", metavar="MM", type=float, default=d.stop_move_mm,
+                   help=f"stop once a checkpoint moved no pattern point more than MM since the last "
+                        f"one (default {d.stop_move_mm}; 0: run to the objective's own stop or the budget)")
     p.add_argument("--time-budget", metavar="S", type=float, default=0.0, help="stop after S seconds (default: none)")
     if truth:
         p.add_argument("--truth", metavar="PATTERN", type=Path, default=None,
@@ -182,6 +185,7 @@ def check_grade_numbers(args) -> None:
     number("--sdf-margin", args.sdf_margin, allow_zero=True)
     number("--time-budget", args.time_budget, allow_zero=True)
     number("--adjoint-forcing", args.adjoint_forcing, allow_zero=True)
+    number("--stop-move-mm", args.stop_move_mm, allow_zero=True)
     whole("--inner-iterations", args.inner_iterations, 1)
     whole("--checkpoint-every", args.checkpoint_every, 1)
     whole("--max-iterations", args.max_iterations, 0)
@@ -203,7 +207,7 @@ def settings_from_args(args, base_pattern):
                              sdf_region_margin=args.sdf_margin, inner_iterations=args.inner_iterations,
                              checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,
                              time_budget_s=args.time_budget, device=args.device,
-                             adjoint_forcing=args.adjoint_forcing)
+                             adjoint_forcing=args.adjoint_forcing, stop_move_mm=args.stop_move_mm)
     settings.validate()
     return settings
 

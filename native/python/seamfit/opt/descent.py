@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from .device_arrays import to_device
+from .device_arrays import host, to_device
 from .output import SearchOutcome
 
 
@@ -47,6 +47,7 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
     theta, x = np.array(theta0, dtype=float), np.array(x0, dtype=float)
     f0, _ = objective.objective(x, theta)
     ck_theta, ck_x, ck_f = theta.copy(), x.copy(), f0
+    ck_p = np.array(host(param.pattern(theta)), dtype=float) if settings.stop_move_mm > 0 else None
     # The relative residual of x as its solve reported it (the adjoint's tolerance
     # follows it on the GPU): x0 is an exact drape.
     x_res = ck_res = None
@@ -55,7 +56,7 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
     def grading_f(xx, th, f_search):
         return f_search if same else ctx.objective.objective(xx, th)[0]
 
-    checkpoints = [(0, f0, grading_f(x, theta, f0))]
+    checkpoints = [(0, f0, grading_f(x, theta, f0), None)]
     S, s = settings.inner_iterations, settings.step
     k = 0              # accepted outer iterations
     work = 0           # outer iterations done, discarded ones included
@@ -139,8 +140,13 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
                 break
             continue
         decrease = ck_f - f
+        # how far the pattern moved since the last accepted checkpoint (mm)
+        moved_mm = 1e3 * float(np.max(np.abs(np.asarray(host(param.pattern(theta))) - ck_p))) \
+            if settings.stop_move_mm > 0 else np.inf
         ck_theta, ck_x, ck_f, ck_res = theta.copy(), res.x.copy(), f, float(res.residual)
-        checkpoints.append((k, f, grading_f(res.x, theta, f)))
+        if settings.stop_move_mm > 0:
+            ck_p = np.array(host(param.pattern(ck_theta)), dtype=float)
+        checkpoints.append((k, f, grading_f(res.x, theta, f), None if np.isinf(moved_mm) else moved_mm))
         x, x_res = res.x, ck_res
         theta_w, x_w = _restart(gpu, theta_w, x_w, theta, x)
         record(f, True)
@@ -152,6 +158,9 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
         if decrease <= settings.rel_tol * abs(f):
             converged, message = True, "objective no longer falls"
             break
+        if moved_mm <= settings.stop_move_mm:
+            converged, message = True, f"the pattern stopped moving ({moved_mm:.3f} mm since the last checkpoint)"
+            break
         if settings.time_budget_s and time.perf_counter() - ctx.t_start > settings.time_budget_s:
             message = "time budget reached"
             break
@@ -159,8 +168,8 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
     return SearchOutcome(
         theta=ck_theta, x=ck_x, theta_start=np.array(theta0, dtype=float), x_start=np.array(x0, dtype=float),
         iterations=k, iterations_done=work, backtracks=backtracks, converged=converged, message=message,
-        checkpoints=[{"iteration": i, "objective": float(fg), "search_objective": float(fs)}
-                     for i, fs, fg in checkpoints],
+        checkpoints=[{"iteration": i, "objective": float(fg), "search_objective": float(fs),
+                      "moved_mm": mv} for i, fs, fg, mv in checkpoints],
         cost_evaluations=dict(objective.evaluations), history=hist,
         seconds_loop=time.perf_counter() - t_loop,
         details={"state_on_gpu": gpu, "seconds_loop_split": {**split, "factorizations": ctx.adjoint.seconds_factorize,

@@ -76,6 +76,9 @@ class GradeSettings:
     max_step: float = 16.0
     min_step: float = 1e-4
     rel_tol: float = 1e-3              # stop when a checkpoint lowers f by less than rel_tol * f
+    # stop when an accepted checkpoint moved no pattern point more than this (mm) since the
+    # one before: the pattern has stopped moving, whatever f still does (0: never)
+    stop_move_mm: float = 0.1
     exact_tolerance: Optional[float] = None   # residual of exact solves (default: SimSettings.tolerance)
     bandwidth: float = DEFAULT_BANDWIDTH      # B of Eq. 15 (m)
     evaluate_base_pattern: bool = True        # also drape the unchanged pattern on the target
@@ -115,6 +118,8 @@ class GradeSettings:
             raise SolveError(f"unknown start {self.start!r}; choose one of {', '.join(STARTS)}")
         if self.method not in METHODS:
             raise SolveError(f"unknown grading method {self.method!r}; choose one of {', '.join(METHODS)}")
+        if not (self.stop_move_mm >= 0):
+            raise SolveError(f"stop_move_mm must be >= 0, got {self.stop_move_mm}")
         if self.inner_iterations < 1 or self.checkpoint_every < 1 or self.max_outer_iterations < 0:
             raise SolveError("inner_iterations and checkpoint_every must be >= 1, max_outer_iterations >= 0")
         if not (self.step > 0 and self.edge_length_cm > 0 and self.sdf_spacing > 0):

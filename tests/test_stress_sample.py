@@ -30,5 +30,5 @@ def test_a_randomized_run_ends_ok_or_refused(kind, tmp_path, monkeypatch):
 def test_the_summary_counts_every_outcome():
     rows = [{"kind": "drape", "outcome": "ok", "seconds": 1.0}, {"kind": "grade", "outcome": "hang", "seconds": 9.0}]
     text = "\n".join(stress.summary(rows))
-    assert "| drape | 1 | 1 | 0 | 0 | 0 | 0 | 0 |" in text
-    assert "| grade | 1 | 0 | 0 | 0 | 0 | 1 | 0 |" in text
+    assert "| drape | 1 | 1 | 0 | 0 | 0 | 0 | 0 | 0 | - | 1.0 | 1.0 |" in text
+    assert "| grade | 1 | 0 | 0 | 0 | 0 | 1 | 0 | 0 | - | 9.0 | 9.0 |" in text

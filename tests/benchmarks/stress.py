@@ -173,15 +173,18 @@ def run(n: int, seed: int, jobs: int, timeout_s: float, out: Path | None = None)
 
 
 def summary(rows: list[dict]) -> list[str]:
-    lines = ["| kind | runs | " + " | ".join(OUTCOMES) + " | median s | max s |",
-             "|---|---:|" + "---:|" * len(OUTCOMES) + "---:|---:|"]
+    lines = ["| kind | runs | " + " | ".join(OUTCOMES) + " | converged | min phi mm (drapes) | median s | max s |",
+             "|---|---:|" + "---:|" * len(OUTCOMES) + "---:|---:|---:|---:|"]
     for kind in ("drape", "grade", "all"):
         rs = [r for r in rows if kind == "all" or r["kind"] == kind]
         if not rs:
             continue
         secs = [r.get("seconds", 0.0) for r in rs]
-        lines.append(f"| {kind} | {len(rs)} | " + " | ".join(str(sum(r["outcome"] == o for r in rs)) for o in OUTCOMES)
-                     + f" | {statistics.median(secs):.1f} | {max(secs):.1f} |")
+        phi = [r["min_phi_mm"] for r in rs if r.get("min_phi_mm") is not None]
+        counts = " | ".join(str(sum(r["outcome"] == o for r in rs)) for o in OUTCOMES)
+        converged = sum(bool(r.get("converged")) for r in rs)
+        lines.append(f"| {kind} | {len(rs)} | {counts} | {converged} | " + (f"{min(phi):.2f}" if phi else "-"))
+        lines[-1] += f" | {statistics.median(secs):.1f} | {max(secs):.1f} |"
     return lines
 
 

@@ -188,7 +188,7 @@ def summary(rows: list[dict]) -> list[str]:
     return lines
 
 
-def report(path: Path, docs: Path) -> Path:
+def report(path: Path, docs: Path, note: str | None = None) -> Path:
     data = json.loads(path.read_text())
     rows = data["runs"]
     bad = [r for r in rows if r["outcome"] not in ("ok", "refused")]
@@ -198,10 +198,20 @@ def report(path: Path, docs: Path) -> Path:
             f"(command: `{data['command']}`).", "",
             "Each run draws a garment, a distorted body and extreme legal settings from its seed and "
             "runs in its own process under a time limit (module docstring of "
-            "`tests/benchmarks/stress.py`).", "", *summary(rows), "",
+            "`tests/benchmarks/stress.py`).", "", *([note, ""] if note else []), *summary(rows), "",
             "## Runs that were not ok or refused", ""]
     text += [f"* seed {r['seed']} ({r['kind']}, {r['garment']}): **{r['outcome']}**, "
              f"{str(r.get('message', ''))[:200]}" for r in bad] or ["None."]
+    drapes = [r for r in rows if r["kind"] == "drape" and r.get("min_phi_mm") is not None]
+    if drapes:
+        worst = min(drapes, key=lambda r: r["min_phi_mm"])
+        inside = sorted(r["min_phi_mm"] for r in drapes)
+        text += ["", "## How far the drapes ended inside the body's field", "",
+                 f"Every drape's least signed distance to the body (negative: inside the field, which the "
+                 f"barrier keeps shallow): median {statistics.median(inside):.2f} mm, worst "
+                 f"{worst['min_phi_mm']:.2f} mm (seed {worst['seed']}: barrier strength mu {worst['mu']:.4f}, "
+                 f"started {100 * worst['push_in_m']:.2f} cm inside, fields at {1000 * worst['sdf_spacing']:.1f} mm); "
+                 f"{sum(v < -1.0 for v in inside)} of {len(inside)} deeper than 1 mm."]
     text += ["", "## Refusals (one-line messages)", ""] + ([f"* {m}" for m in refused] or ["None."])
     out = docs / "stress_results.md"
     out.write_text("\n".join(text) + "\n")
@@ -220,12 +230,13 @@ def main(argv=None) -> int:
     p = sub.add_parser("report")
     p.add_argument("results", type=Path)
     p.add_argument("--docs", type=Path, default=ROOT / "docs")
+    p.add_argument("--note", default=None, help="a paragraph put above the table")
     a = ap.parse_args(argv)
     if a.cmd == "run":
         rows = run(a.runs, a.seed, a.jobs, a.timeout, a.out)
         print("\n".join(summary(rows)))
         return 0
-    print(f"wrote {report(a.results, a.docs)}")
+    print(f"wrote {report(a.results, a.docs, a.note)}")
     return 0
 
 

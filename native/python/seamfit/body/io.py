@@ -217,12 +217,15 @@ def _obj_faces(rows, lines, nv_before, n_vertices, where):
     joined = " ".join(" ".join(r[1:]) for r in rows)
     try:
         flat = np.array(_SLASH_TAIL.sub("", joined).split(), dtype=np.int64)
-    except ValueError:
+    except (ValueError, OverflowError):
         for q, r in enumerate(rows):
             try:
-                [int(t.split("/", 1)[0]) for t in r[1:]]
+                ids = [int(t.split("/", 1)[0]) for t in r[1:]]
             except ValueError:
                 raise BodyError(f"{where}: line {lines[q]}: bad face vertex index in {' '.join(r[1:])!r}") from None
+            if any(abs(i) >= 2 ** 63 for i in ids):
+                raise BodyError(f"{where}: line {lines[q]}: face vertex index out of range in "
+                                f"{' '.join(r[1:])[:80]!r}")
         raise
     if flat.size != counts.sum():  # e.g. a token like "/2" with an empty vertex index
         for q, r in enumerate(rows):

@@ -141,11 +141,11 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
             continue
         decrease = ck_f - f
         # how far the pattern moved since the last accepted checkpoint (mm)
-        moved_mm = 1e3 * float(np.max(np.abs(np.asarray(host(param.pattern(theta))) - ck_p))) \
-            if settings.stop_move_mm > 0 else np.inf
-        ck_theta, ck_x, ck_f, ck_res = theta.copy(), res.x.copy(), f, float(res.residual)
+        moved_mm = np.inf
         if settings.stop_move_mm > 0:
-            ck_p = np.array(host(param.pattern(ck_theta)), dtype=float)
+            p_new = np.array(host(param.pattern(theta)), dtype=float)
+            moved_mm, ck_p = 1e3 * float(np.max(np.abs(p_new - ck_p))), p_new
+        ck_theta, ck_x, ck_f, ck_res = theta.copy(), res.x.copy(), f, float(res.residual)
         checkpoints.append((k, f, grading_f(res.x, theta, f), None if np.isinf(moved_mm) else moved_mm))
         x, x_res = res.x, ck_res
         theta_w, x_w = _restart(gpu, theta_w, x_w, theta, x)

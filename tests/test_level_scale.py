@@ -120,3 +120,61 @@ def test_a_skirt_passes_the_crotch_as_one_tube(skirt):
     top = xbar.copy()
     top[:, 2] = np.maximum(top[:, 2], body.vertices[:, 2].max() * 0.55)
     assert not passes_crotch_as_one_tube(mesh, top, body)
+
+
+def _tube(cx: float, r: float = 0.1, n: int = 12, zs=(0.0, 0.2, 0.4), offset: int = 0):
+    """A tube of two half-cylinder panels (separate vertices) sewn along both sides:
+    (vertices, triangles, sewing pairs)."""
+    verts, tris, pairs = [], [], []
+    cols = []
+    for half in (0, 1):
+        a = np.linspace(np.pi * half, np.pi * (half + 1), n // 2 + 1)
+        base = offset + len(verts)
+        for z in zs:
+            for t in a:
+                verts.append((cx + r * np.cos(t), r * np.sin(t), z))
+        w = len(a)
+        for i in range(len(zs) - 1):
+            for j in range(w - 1):
+                v0 = base + i * w + j
+                tris += [(v0, v0 + 1, v0 + w), (v0 + 1, v0 + w + 1, v0 + w)]
+        cols.append((base, w))
+    (b0, w), (b1, _) = cols
+    for i in range(len(zs)):
+        pairs.append((b0 + i * w + w - 1, b1 + i * w))      # angle pi: end of panel 0, start of panel 1
+        pairs.append((b1 + i * w + w - 1, b0 + i * w))      # angle 2 pi = 0
+    return np.array(verts), np.array(tris), np.array(pairs)
+
+
+def test_a_section_counts_its_closed_pieces_from_the_mesh_not_from_where_it_hangs():
+    from types import SimpleNamespace
+
+    from seamfit.opt.level_scale import section_loops
+    v0, t0, s0 = _tube(-0.1)
+    # The second leg touches the first between them (x = 0): still two tubes.
+    v1, t1, s1 = _tube(0.1, offset=len(v0))
+    legs = SimpleNamespace(triangles=np.vstack([t0, t1]), sewing_pairs=np.vstack([s0, s1]))
+    x = np.vstack([v0, v1])
+    assert section_loops(legs, x, 0.1) == 2
+    assert section_loops(legs, x, 0.5) == 0                  # above the garment
+    one = SimpleNamespace(triangles=t0, sewing_pairs=s0)
+    assert section_loops(one, v0, 0.3) == 1
+    # Unsewn, the two panels of one tube are two pieces.
+    assert section_loops(SimpleNamespace(triangles=t0, sewing_pairs=np.zeros((0, 2), int)), v0, 0.3) == 2
+
+
+def test_the_skirt_section_below_the_crotch_is_one_piece(skirt):
+    from seamfit.opt.level_scale import base_levels, section_loops
+    mesh, xbar, body, sdf = skirt
+    crotch = base_levels(body)["crotch"]
+    assert section_loops(mesh, xbar, 0.5 * (crotch + xbar[:, 2].min())) == 1
+
+
+def test_the_height_map_goes_on_beyond_the_soles_with_its_end_slope():
+    # A floor-length garment hangs below the soles: clamping the map there would give its
+    # hem no vertical stretch at all.
+    from seamfit.opt.level_scale import map_height
+    zb, zt = np.array([0.0, 0.8, 1.6]), np.array([0.0, 0.76, 1.6])
+    z = np.array([-0.02, 0.4, 1.7])
+    out = map_height(z, zb, zt)
+    assert np.allclose(out, [-0.02 * 0.95, 0.38, 1.6 + 0.1 * 0.84 / 0.8])

@@ -47,6 +47,7 @@ def main(argv=None) -> int:
     ap.add_argument("--bodies", default="")
     ap.add_argument("--edge-length", type=float, default=3.0)
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--save", type=Path, default=None, help="write each start as SAVE/<garment>/<body>/level.json")
     a = ap.parse_args(argv)
     index = json.loads((a.data / "patterns" / "index.json").read_text())
     garments = sorted(index["garments"]) if not a.garments else a.garments.split(",")
@@ -70,7 +71,12 @@ def main(argv=None) -> int:
                    "unchanged": baseline_errors(base, truth).max_cm,
                    "scaled": landmark_errors(proportional_scale(base, m0, m1)[0], truth).max_cm}
             try:
-                rep = landmark_errors(level_scaled(base, ctx, b0, b1), truth)
+                start = level_scaled(base, ctx, b0, b1)
+                if a.save:
+                    from seamfit.pattern import save_pattern
+                    (a.save / g / body).mkdir(parents=True, exist_ok=True)
+                    save_pattern(start, a.save / g / body / "level.json", overwrite=True)
+                rep = landmark_errors(start, truth)
                 row["level"], row["level_mean"], row["level_worst"] = rep.max_cm, rep.mean_cm, list(rep.worst)
                 # signed size bias: result minus truth, per panel (does the start under-grow?)
                 row["level_area_pct"] = {n: q.area_diff_pct for n, q in rep.panels.items()}

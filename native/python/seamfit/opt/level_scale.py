@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import spsolve
 from scipy.spatial import ConvexHull, Delaunay, QhullError
 
@@ -77,6 +78,18 @@ def level_map(base_body, target_body, *, crotch: bool = True, levels: dict | Non
     return zb[keep], zt[keep]
 
 
+def map_height(z, zb, zt):
+    """The level map at heights z: piecewise linear through the knots, and continued with
+    the end segments' slopes beyond them. A floor-length garment hangs below the soles (the
+    drape has no floor); clamping there would give its hem a zero vertical stretch."""
+    z = np.asarray(z, dtype=float)
+    out = np.interp(z, zb, zt)
+    lo, hi = z < zb[0], z > zb[-1]
+    out[lo] = zt[0] + (z[lo] - zb[0]) * (zt[1] - zt[0]) / (zb[1] - zb[0])
+    out[hi] = zt[-1] + (z[hi] - zb[-1]) * (zt[-1] - zt[-2]) / (zb[-1] - zb[-2])
+    return out
+
+
 def passes_crotch_as_one_tube(mesh, xbar, base_body, levels: dict | None = None) -> bool:
     """Whether the garment hangs past the crotch closed around both legs (a skirt, a
     dress): its length then follows the waist, not the crotch it never meets; trousers
@@ -85,15 +98,28 @@ def passes_crotch_as_one_tube(mesh, xbar, base_body, levels: dict | None = None)
     bottom = float(np.min(xbar[:, 2]))
     if bottom > crotch_z - 2 * LEVEL_STEP_M:
         return False
-    # Halfway down from the crotch, trouser legs stand apart even on full thighs.
-    z = 0.5 * (crotch_z + bottom)
-    pts = mesh_cross_section(xbar, np.asarray(mesh.triangles), z)
-    return bool(len(pts)) and _crosses_midline(pts, _Slicer(base_body), mesh)
+    # Halfway down from the crotch, trouser legs are two tubes, a skirt is one.
+    return section_loops(mesh, xbar, 0.5 * (crotch_z + bottom)) == 1
 
 
-def _crosses_midline(pts, slicer, mesh) -> bool:
-    window = max(0.02, 0.01 * float(mesh.edge_length_cm))
-    return bool(np.any(np.abs(pts[:, 0] - float(slicer.axis[0])) < window))
+def section_loops(mesh, x, z: float) -> int:
+    """How many closed pieces the garment's section at height z has: the triangles that
+    straddle z, joined through their vertices and through the stitches (the panels are
+    separate pieces of cloth sewn together). Read off the mesh, not off where the cloth
+    hangs: wide trouser legs touch each other between the thighs but stay two tubes."""
+    tri = np.asarray(mesh.triangles)
+    zt = np.asarray(x, dtype=float)[tri, 2] - z
+    cut = tri[(zt.min(axis=1) < 0) & (zt.max(axis=1) > 0)]
+    if len(cut) == 0:
+        return 0
+    pairs = np.asarray(mesh.sewing_pairs, dtype=np.int64).reshape(-1, 2)
+    used = np.zeros(len(x), dtype=bool)
+    used[cut.ravel()] = True
+    pairs = pairs[used[pairs[:, 0]] & used[pairs[:, 1]]]
+    edges = np.vstack([cut[:, [0, 1]], cut[:, [1, 2]], pairs])
+    g = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(len(x), len(x)))
+    _, label = connected_components(g, directed=False)
+    return len(np.unique(label[used]))
 
 
 def _hull(points):
@@ -155,15 +181,14 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
         band = np.abs(xbar[:, 2] - z) < LEVEL_STEP_M
         if band.any() and np.mean(phi[band] < CONTACT_M) >= SUPPORT_FRACTION and np.isfinite(h1):
             dH[k] = h1 - h0
-    # Below a supported hip, a garment closed around both legs (its section crosses the
-    # body's midline between them: a skirt, a dress) hangs from the hip, as a straight
-    # skirt's hem is drafted from the hip; trouser legs follow their own levels.
+    # Below a supported hip, a garment closed around both legs (its section is one loop:
+    # a skirt, a dress) hangs from the hip, as a straight skirt's hem is drafted from the
+    # hip; trouser legs follow their own levels.
     hip_z = float((levels or base_levels(base_body))["hip"])
     k_hip = int(np.argmin(np.abs(zs - hip_z)))
     if np.isfinite(dH[k_hip]):
         for k in range(k_hip):
-            pts = mesh_cross_section(xbar, tri, zs[k])
-            if len(pts) and _crosses_midline(pts, s0, mesh):
+            if section_loops(mesh, xbar, zs[k]) == 1:
                 dH[k] = dH[k_hip]
     known = np.flatnonzero(np.isfinite(dH))
     if len(known) == 0:
@@ -192,7 +217,7 @@ def _stretch_targets(mesh, xbar, profile, zmap):
     z = c[:, 2]
     sx = np.interp(z, profile["z"], profile["sx"])
     h = LEVEL_STEP_M
-    sy = (np.interp(z + h, zb, zt) - np.interp(z - h, zb, zt)) / (2 * h)
+    sy = (map_height(z + h, zb, zt) - map_height(z - h, zb, zt)) / (2 * h)
     # The vertical lies in the cloth's plane wherever it hangs, folds included, so the
     # pattern's "down" is the pullback of the vertical; the tape runs across it.
     n = np.cross(E3[:, :, 0], E3[:, :, 1])

@@ -35,6 +35,17 @@ __global__ void k_max_abs(const double* x, size_t count, double* out) {
   if (threadIdx.x == 0) out[0] = sh[0];
 }
 
+// DeviceArray's work runs on the legacy default stream, but its arrays are read and
+// written by the CUDA classes' own streams, made with cudaStreamNonBlocking: those do
+// not wait for the legacy stream. cudaMemset and a device-to-device cudaMemcpy return
+// before the device has done them, and a cudaMemcpy from pageable host memory may
+// return before its DMA has landed; so each operation here waits for the legacy
+// stream before it returns (the "returns once complete" of device_array.hpp), and a
+// kernel on another stream that reads or writes the array next sees it settled. A
+// stream sync, not a device sync: other streams' work (all synchronized by their own
+// entry points before they return) is not waited for.
+void settle() { SF_CUDA(cudaStreamSynchronize(0)); }
+
 }  // namespace
 
 DeviceArray::DeviceArray(int rows, int cols) : rows_(rows), cols_(cols) {
@@ -42,6 +53,7 @@ DeviceArray::DeviceArray(int rows, int cols) : rows_(rows), cols_(cols) {
   SF_CUDA(cudaMalloc(&p_, std::max<size_t>(size(), 1) * sizeof(double)));
   SF_CUDA(cudaMalloc(&scratch_, sizeof(double)));
   SF_CUDA(cudaMemset(p_, 0, std::max<size_t>(size(), 1) * sizeof(double)));
+  settle();  // zeroed before another stream writes a result into it (else the memset may land after)
 }
 
 DeviceArray::~DeviceArray() {
@@ -50,7 +62,9 @@ DeviceArray::~DeviceArray() {
 }
 
 void DeviceArray::upload(const double* host) {
-  if (size()) SF_CUDA(cudaMemcpy(p_, host, size() * sizeof(double), cudaMemcpyHostToDevice));
+  if (!size()) return;
+  SF_CUDA(cudaMemcpy(p_, host, size() * sizeof(double), cudaMemcpyHostToDevice));
+  settle();  // from pageable memory cudaMemcpy may return before the DMA has landed
 }
 
 void DeviceArray::download(double* host) const {
@@ -62,6 +76,7 @@ void DeviceArray::copy_from(const DeviceArray& other) {
     throw CudaError("DeviceArray: copy of " + std::to_string(other.size()) + " entries into " + std::to_string(size()));
   if (size() && other.p_ != p_) {
     SF_CUDA(cudaMemcpy(p_, other.p_, size() * sizeof(double), cudaMemcpyDeviceToDevice));
+    settle();  // a device-to-device cudaMemcpy does not wait for the copy
   }
 }
 
@@ -72,7 +87,7 @@ void DeviceArray::axpy(double a, const DeviceArray& x) {
   const int blocks = int(std::min<size_t>((size() + 255) / 256, 1024));
   k_axpy<<<blocks, 256>>>(p_, x.p_, a, size());
   SF_CUDA(cudaGetLastError());
-  SF_CUDA(cudaStreamSynchronize(0));
+  settle();
 }
 
 double DeviceArray::max_abs() const {

@@ -832,7 +832,10 @@ sim::SolveReport SimGpu::solve_device(double* d_x, const sim::SolveSettings& st,
     std::vector<double> xh(3 * size_t(I.n));
     copy_to_host(xh.data(), d_x, bytes);
     sim::SolveReport rep = solve(xh.data(), st, progress, cancel);
-    SF_CUDA(cudaMemcpy(d_x, xh.data(), bytes, cudaMemcpyHostToDevice));
+    // On this stream and waited for: a plain cudaMemcpy from pageable memory may return
+    // before its DMA lands, and the next reader of d_x may run on another stream.
+    SF_CUDA(cudaMemcpyAsync(d_x, xh.data(), bytes, cudaMemcpyHostToDevice, I.stream));
+    SF_CUDA(cudaStreamSynchronize(I.stream));
     rep.seconds = seconds_since(t0);
     return rep;
   }

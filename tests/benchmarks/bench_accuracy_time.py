@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import os
 import statistics as st
 import sys
@@ -81,6 +82,15 @@ def run_case(data: str, garment: str, body: str, edge: float, budget: float, dev
     return row
 
 
+def _pick_gpu(slot, gpus: int) -> None:
+    """Worker k of the pool uses GPU k mod gpus (each worker keeps its GPU for all its cases)."""
+    with slot.get_lock():
+        k = slot.value
+        slot.value += 1
+    if gpus > 1:
+        os.environ["CUDA_VISIBLE_DEVICES"] = str(k % gpus)
+
+
 def at(points: list, budget: float):
     """The last scored state reached within ``budget`` seconds (None: none yet)."""
     done = [p for p in points if p["seconds"] <= budget]
@@ -97,7 +107,12 @@ def cmd_run(a) -> int:
     rows = []
     meta = {"command": " ".join(sys.argv), "budgets": [float(b) for b in a.budgets.split(",")],
             "jobs": a.jobs, "threads": a.threads, "cores": os.cpu_count()}
-    with ProcessPoolExecutor(max_workers=a.jobs) as pool:
+    if a.gpus > 1:
+        meta["gpus"] = a.gpus
+    ctx = multiprocessing.get_context()
+    slot = ctx.Value("i", 0)
+    with ProcessPoolExecutor(max_workers=a.jobs, mp_context=ctx, initializer=_pick_gpu,
+                             initargs=(slot, a.gpus)) as pool:
         futs = [pool.submit(run_case, str(a.data), g, b, e, budget, a.device) for e in edges for g, b in pairs]
         for fut in as_completed(futs):
             r = fut.result()
@@ -179,6 +194,7 @@ def main(argv=None) -> int:
     r.add_argument("--edge-lengths", default="3")
     r.add_argument("--budgets", default="10,30,100")
     r.add_argument("--device", default="cpu")
+    r.add_argument("--gpus", type=int, default=1, help="spread the workers over this many GPUs")
     p = sub.add_parser("report")
     p.add_argument("results", type=Path, nargs="+")
     p.add_argument("--docs", type=Path, default=ROOT / "docs")

@@ -345,6 +345,15 @@ class DrapeOutput:
     fit: dict
 
 
+def default_edge_length_cm() -> float:
+    """seamfit's default mesh edge (cm), the one `seamfit grade` and `seamfit drape` use."""
+    try:
+        from seamfit.mesh.boundary import DEFAULT_EDGE_LENGTH_CM
+        return float(DEFAULT_EDGE_LENGTH_CM)
+    except Exception:   # seamfit not importable: the value it documents
+        return 3.0
+
+
 def fabric_defaults() -> dict:
     """seamfit's default fabric (numbers shown in the Simulation panel)."""
     try:

@@ -121,7 +121,7 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     pattern: PointerProperty(type=bpy.types.Collection, poll=_is_pattern, name="Pattern",
                              description="The base pattern that drape and adjust use")
     edge_length_cm: FloatProperty(
-        name="Mesh resolution (cm)", default=1.5, min=0.3, max=20.0, precision=2,
+        name="Mesh resolution (cm)", default=compute.default_edge_length_cm(), min=0.3, max=20.0, precision=2,
         description="Target edge length of the simulation mesh: smaller is finer and slower")
     base_body: PointerProperty(type=bpy.types.Object, poll=_is_mesh, name="Base body",
                                description="The body the base pattern was made for")

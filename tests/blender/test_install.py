@@ -48,7 +48,7 @@ def test_bundled_wheels_are_the_ones_used(installed):
 def test_user_scene_props_defaults(scene):
     s = scene.seamfit
     assert s.pattern is None and s.base_body is None and s.target_body is None
-    assert s.edge_length_cm == 1.5
+    assert s.edge_length_cm == 3.0
     assert s.device == "AUTO"
     assert s.strength_preset == "dress"
     assert (s.strength_fix, s.strength_cur, s.strength_dis, s.strength_smo, s.strength_str,

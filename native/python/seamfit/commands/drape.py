@@ -31,6 +31,7 @@ garment's weight (relative residual). See docs/simulator.md.
 
 
 def register(subparsers) -> None:
+    from ..mesh.boundary import DEFAULT_EDGE_LENGTH_CM
     from ..sim import Fabric, SimSettings
     fab, st = Fabric(), SimSettings()
     p = subparsers.add_parser(
@@ -42,8 +43,8 @@ def register(subparsers) -> None:
     p.add_argument("body", metavar="BODY", type=Path, help="body mesh (.obj or .ply, metres, Z up, facing -Y)")
     p.add_argument("--out", metavar="DIR", type=Path, required=True,
                    help="output folder (created if missing): garment.obj, report.json, drape.png")
-    p.add_argument("--edge-length", metavar="CM", type=float, default=1.5,
-                   help="target triangle edge length in cm (default 1.5)")
+    p.add_argument("--edge-length", metavar="CM", type=float, default=DEFAULT_EDGE_LENGTH_CM,
+                   help=f"target triangle edge length in cm (default {DEFAULT_EDGE_LENGTH_CM})")
     p.add_argument("--method", choices=("chebyshev", "newton"), default=st.method,
                    help=f"solver (default {st.method})")
     p.add_argument("--max-iterations", metavar="N", type=int, default=None,

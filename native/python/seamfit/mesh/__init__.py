@@ -1,6 +1,6 @@
 """Panel meshing and sewing: a pattern becomes one triangle mesh with sewing pairs.
 
-``build_sewn_mesh(pattern, edge_length_cm=1.5)`` samples every panel boundary so that the two
+``build_sewn_mesh(pattern, edge_length_cm=3.0)`` samples every panel boundary so that the two
 sides of every stitch get the same number of vertices (``boundary``), triangulates each panel
 with gmsh keeping exactly those boundary vertices (``triangulate``), and places the panels in 3D.
 ``outline_from_uv`` turns new boundary positions back into panel outlines; ``write_obj`` /

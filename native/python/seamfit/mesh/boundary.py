@@ -37,7 +37,10 @@ import numpy as np
 from ..errors import PatternError
 from ..pattern.model import Panel, Pattern, Stitch
 
-DEFAULT_EDGE_LENGTH_CM = 1.5
+# The default mesh for draping and grading: on all 57 shared cases the landmark error of a
+# grading does not fall with a finer mesh, and 3 cm reaches it in half the time or less
+# (docs/accuracy_time.md); a finer mesh holds the ease 0.1-0.2 cm closer.
+DEFAULT_EDGE_LENGTH_CM = 3.0
 # Two arc positions closer than this (cm) are one vertex: zero-length outline segments and
 # float noise on positions computed along different stitches.
 SAME_POINT_CM = 1e-7

@@ -20,6 +20,7 @@ from typing import Optional
 import numpy as np
 
 from ..errors import SolveError
+from ..mesh.boundary import DEFAULT_EDGE_LENGTH_CM
 from ..pattern import Pattern
 from ..sim.model import Fabric, SimSettings
 from .baselines import fixed_point, two_phase
@@ -56,7 +57,7 @@ class GradeSettings:
     # error 1.81 cm against 2.50 on the 57 shared cases, docs/accuracy_results.md) or
     # "base" (the paper: Section 7's initialization from the base pattern).
     start: str = "level"
-    edge_length_cm: float = 1.5
+    edge_length_cm: float = DEFAULT_EDGE_LENGTH_CM
     sdf_spacing: float = 0.0025        # the paper's 2.5 mm
     # Where the body fields are built: "body" (whole body), "garment" (cut to the garment's
     # height band +- sdf_region_margin m) or "auto" (whole body unless its grid would exceed

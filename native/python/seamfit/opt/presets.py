@@ -8,7 +8,8 @@ smoothness term squared differences of |L_e x| (which we normalise to a bending 
 dimensionless; see docs/optimizer.md), so for those two the coefficient is
 dimensionless and the "1/m^2" label does not apply. Every term is a plain sum over
 vertices, edges or hinges, as in the paper, so the balance between terms holds for
-meshes of similar resolution (the paper's 1-1.5 cm edges; ours default to 1.5 cm).
+meshes of similar resolution (the paper's 1-1.5 cm edges; ours default to 3 cm, at which
+every preset was measured on the shared cases).
 
 seam, the seam-length term R^seam (seamfit.opt.seam), is not in the paper. It sums squared
 length differences in metres per matched seam segment, the same units as R^cur's squared

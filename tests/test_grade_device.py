@@ -104,8 +104,8 @@ def test_gpu_grading_matches_the_cpu_as_closely_as_two_cpu_solvers():
     spring blocks is the reference for how far apart. One grading is a noisy yardstick
     (the same case from base drapes that differ in their last bits ends 1.5-2.3 mm apart
     between the two CPU solvers), so three meshes of the case are graded (3.6, 4.0 and
-    4.4 cm edges). The GPU (which takes the CPU's iteration without the lagged blocks, up to
-    the order of sums, and its adjoint by MINRES to F = 0.01 at inexact states) must stay
+    4.4 cm edges). The GPU (run like the reference CPU solver, without the lagged blocks, so it takes
+    the CPU's iteration up to the order of sums, and its adjoint by MINRES to F = 0.01 at inexact states) must stay
     within that spread of the CPU: its median pattern distance within the CPU pair's largest
     plus 0.5 mm, its mean objective ratio within the CPU pair's largest deviation plus 5 %.
     Measured on an H100 (docs/gpu.md, "Grading on the GPU"): over six cases (these three

@@ -288,9 +288,8 @@ def test_tube_drape_matches_cpu(device):
     sim, res = drape(device)
     assert ref.converged and res.converged, (ref.message, res.message)
     # Both sew, then settle; a settle that stagnates short of the tolerance is finished
-    # by the Newton polish, and rounding decides on which side that happens (the CPU's
-    # step skips the SDF far from the body, the GPU's samples it), so the polish may
-    # appear on one side only. The verdict is the same: converged.
+    # by the Newton polish, and rounding (the order of sums) decides on which side that
+    # happens, so the polish may appear on one side only. The verdict is the same: converged.
     assert [s["stage"] for s in res.stages][:2] == ["sew", "settle"] == [s["stage"] for s in ref.stages][:2]
     assert res.stages[-1]["converged"] and ref.stages[-1]["converged"]
     assert res.residual <= tol
@@ -304,8 +303,9 @@ def test_tube_drape_matches_cpu(device):
 def test_solve_report_budgets_and_cancel(device):
     mesh = sewn_tube(radius_m=0.12, height_cm=30, nu=10, nv=6, gap_m=0.05, z0=0.2)
     body = hourglass_sdf(spacing=0.01)
-    # Without the CPU's two economies (lagged spring blocks, bounded far steps; the GPU
-    # has neither) both devices take the very same iteration.
+    # Both devices follow the same control rules; without the two economies (lagged spring
+    # blocks, bounded far steps) no decision hangs on the order of sums, so both take the
+    # very same iteration.
     same = dict(precond_refresh=1, far_bound=False)
     sim = Simulator(mesh, body, Fabric(), SimSettings(tolerance=1e-12, sew_first=False, device=device,
                                                       history_every=10, progress_every=10, **same))

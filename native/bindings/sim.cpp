@@ -112,9 +112,9 @@ void bind_sim(py::module_& m) {
       .def_readwrite("momentum_restart", &SolveSettings::momentum_restart,
                      "Chebyshev: drop momentum against the force: 0 never, 1 globally, 2 per vertex")
       .def_readwrite("precond_refresh", &SolveSettings::precond_refresh,
-                     "Chebyshev (CPU): iterations between refreshes of the springs' Jacobi blocks")
+                     "Chebyshev (CPU and GPU): iterations between refreshes of the springs' Jacobi blocks")
       .def_readwrite("far_bound", &SolveSettings::far_bound,
-                     "Chebyshev (CPU): bound, not sample, steps beyond the barrier's reach");
+                     "Chebyshev (CPU and GPU): bound, not sample, steps beyond the barrier's reach");
 
   py::class_<Simulator>(m, "Simulator", "Quasistatic garment simulator (Wang 2018, section 4) on the CPU.")
       .def(py::init([](DArr p, IArr tris, IArr sew, const SimParams& params) {

@@ -73,12 +73,23 @@ __device__ void reduce_parts(const double* pe, int nbe, const double* ps, int nb
     for (int q = 0; q < kSums; ++q) sums[q] = sh[q][0];
 }
 
+// D += D of the lane o apart (one butterfly stage).
+__device__ __forceinline__ void shfl_add(Sym3& D, int o) {
+  D.xx += __shfl_xor_sync(0xffffffffu, D.xx, o);
+  D.yy += __shfl_xor_sync(0xffffffffu, D.yy, o);
+  D.zz += __shfl_xor_sync(0xffffffffu, D.zz, o);
+  D.xy += __shfl_xor_sync(0xffffffffu, D.xy, o);
+  D.xz += __shfl_xor_sync(0xffffffffu, D.xz, o);
+  D.yz += __shfl_xor_sync(0xffffffffu, D.yz, o);
+}
+
 // Everything the evaluation kernel of a solve needs besides the model.
 struct EvalArgs {
   Ctrl* c = nullptr;            // null: a plain evaluation (k_sums reduces)
   const double* x = nullptr;
   double* f = nullptr;
   Sym3* D = nullptr;
+  Sym3* Dsp = nullptr;          // the springs' share of D at the last refresh (Ctrl::reuse)
   SdfSample* S = nullptr;
   double* part_eval = nullptr;  // per block: six energy terms and |f|^2
   const double* part_step = nullptr;
@@ -107,36 +118,42 @@ __device__ void control_step(Ctrl* c, const double* sums, int new_cur, double* u
 // sampling code, needs far fewer registers. In a solve, the last block to
 // finish reduces every block's sums and runs the solver's control step, which
 // saves a kernel launch per iteration.
+// In a solve the springs' share of the blocks follows SolveSettings::
+// precond_refresh as on the CPU: with c->reuse their Hessians are not computed
+// and the share stored at the last refresh is read instead; a refresh stores it
+// when a later evaluation may reuse it (precond_refresh > 1).
 template <class R, int L, bool Sample>
 __global__ void __launch_bounds__(256) k_eval(DevModel<R> m, EvalArgs a) {
   Ctrl* c = a.c;
   if (c && c->done) return;
   constexpr bool known = !Sample;
+  // The same for every thread of the launch: branches on them do not diverge.
+  // Plain evaluations (Sample) neither read nor store the springs' share.
+  const bool reuse = !Sample && c && c->reuse;
+  const bool keep = !Sample && c && !reuse && c->precond_refresh > 1;
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int v = t / L, lane = t % L;
   const bool active = v < m.n;
   Vec3 g = make_vec3(0, 0, 0);
-  Sym3 Dv = sim::sym3_zero();
+  Sym3 Dv = sim::sym3_zero(), Dsp = sim::sym3_zero();
   double e[kTerms] = {0, 0, 0, 0, 0, 0};
   SdfSample s;
   s.phi = 0;
   s.grad = make_vec3(0, 0, 0);
   if (active) {
     if (m.bar && known && lane == 0) s = a.S[v];
-    eval_vertex_part(m, a.x, v, lane, L, known, s, g, Dv, e);
+    if (reuse && lane == 0) Dsp = a.Dsp[v];
+    eval_vertex_part(m, a.x, v, lane, L, known, !reuse, s, g, Dsp, Dv, e);
   }
   // Sum the lanes of a vertex (a butterfly: every lane ends with the total).
+  // Reusing, the other lanes hold no share of the block: lane 0 has it all.
 #pragma unroll
   for (int o = 1; o < L; o <<= 1) {
     g.x += __shfl_xor_sync(0xffffffffu, g.x, o);
     g.y += __shfl_xor_sync(0xffffffffu, g.y, o);
     g.z += __shfl_xor_sync(0xffffffffu, g.z, o);
-    Dv.xx += __shfl_xor_sync(0xffffffffu, Dv.xx, o);
-    Dv.yy += __shfl_xor_sync(0xffffffffu, Dv.yy, o);
-    Dv.zz += __shfl_xor_sync(0xffffffffu, Dv.zz, o);
-    Dv.xy += __shfl_xor_sync(0xffffffffu, Dv.xy, o);
-    Dv.xz += __shfl_xor_sync(0xffffffffu, Dv.xz, o);
-    Dv.yz += __shfl_xor_sync(0xffffffffu, Dv.yz, o);
+    if (!reuse) shfl_add(Dv, o);
+    if (keep) shfl_add(Dsp, o);
 #pragma unroll
     for (int q = 0; q < kTerms; ++q) e[q] += __shfl_xor_sync(0xffffffffu, e[q], o);
   }
@@ -148,6 +165,7 @@ __global__ void __launch_bounds__(256) k_eval(DevModel<R> m, EvalArgs a) {
     if (Sample && m.bar && a.S) a.S[v] = s;
     store3(a.f, v, fv);
     a.D[v] = Dv;
+    if (keep) a.Dsp[v] = Dsp;
 #pragma unroll
     for (int q = 0; q < kTerms; ++q) acc[q] = e[q];
     acc[kTerms] = norm2(fv);
@@ -190,6 +208,7 @@ __global__ void __launch_bounds__(256) k_step(DevModel<R> m, const Ctrl* c, doub
                                                SdfSample* __restrict__ S, double* __restrict__ part) {
   if (c->done) return;
   const int mode = c->mode;
+  const double far = c->far;
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   double acc[2] = {0, 0};
   if (v < m.n) {
@@ -208,9 +227,10 @@ __global__ void __launch_bounds__(256) k_step(DevModel<R> m, const Ctrl* c, doub
       SdfSample s;
       if (m.bar) s = S[v];
       Vec3 xn;
-      // The GPU samples the field everywhere (far = 0; sampling is cheap here); the
-      // CPU bounds far steps unless SolveSettings::far_bound is off.
-      if (sim::chebyshev_safe_step(xo, xo - load3(prev, v), d, c->omega, m.bar != 0, m.sdf, m.smooth != 0, 0.0, s,
+      // far > 0 (SolveSettings::far_bound): a step that provably ends beyond the
+      // barrier's reach keeps a bound in S instead of a sample, as on the CPU;
+      // the bound stays with the vertex (S) until a restore samples it again.
+      if (sim::chebyshev_safe_step(xo, xo - load3(prev, v), d, c->omega, m.bar != 0, m.sdf, m.smooth != 0, far, s,
                                    xn) == sim::kStepRejected)
         acc[1] = 1;
       if (m.bar) S[v] = s;
@@ -338,7 +358,7 @@ struct SimGpu::Impl {
   bool bar = false;
   sim::SimParams params;
   // Iteration state.
-  DevBuf xbuf[2], ck, f, D, S, part_eval, part_step, ctrl, upd_norm, hist, sums, arrivals;
+  DevBuf xbuf[2], ck, f, D, Dsp, S, part_eval, part_step, ctrl, upd_norm, hist, sums, arrivals;
   Ctrl* snap = nullptr;  // pinned host copies of the control state
   cudaGraphExec_t graph = nullptr;
   bool graph_dirty = true;
@@ -364,6 +384,7 @@ struct SimGpu::Impl {
     a.x = x;
     a.f = f.as<double>();
     a.D = D.as<Sym3>();
+    a.Dsp = Dsp.as<Sym3>();
     a.S = bar ? S.as<SdfSample>() : nullptr;
     a.part_eval = part_eval.as<double>();
     a.part_step = part_step.as<double>();
@@ -866,9 +887,13 @@ sim::SolveReport SimGpu::run_chebyshev(const sim::SolveSettings& st, const sim::
   c.auto_rho = !(st.rho > 0);
   c.rho_max = st.rho_max;
   c.rho = c.auto_rho ? 0.0 : std::min(st.rho, 0.99999);
-  c.alpha = std::min(std::max(st.alpha, 1e-3), 1.0);
+  c.alpha = c.alpha0 = std::min(std::max(st.alpha, 1e-3), 1.0);
+  // The CPU's economies with the CPU's settings (solve_chebyshev).
+  c.precond_refresh = std::max(st.precond_refresh, 1);
+  c.far = I.bar ? sim::far_step_threshold(st.far_bound, I.params.barrier_distance) : 0.0;
   c.mode = kInit;
   // Buffers baked into the graph: growing them means capturing it again.
+  if (c.precond_refresh > 1 && I.Dsp.reserve(size_t(I.n) * sizeof(Sym3))) I.graph_dirty = true;
   if (I.upd_norm.reserve(size_t(c.warmup) * sizeof(double))) I.graph_dirty = true;
   if (I.hist.reserve(3 * size_t(std::max(c.hist_cap, 1)) * sizeof(double))) I.graph_dirty = true;
   *I.snap = c;
@@ -1035,7 +1060,7 @@ size_t SimGpu::device_bytes() const {
                           &I.tris, &I.vt_ptr, &I.vt_idx, &I.hinge_v, &I.vh_ptr, &I.vh_idx, &I.p, &I.rest_L64,
                           &I.shirring64, &I.Q64, &I.mass64, &I.barrier_c64, &I.L_floored, &I.tri_area, &I.hinge_K,
                           &I.hinge_w, &I.rest_part,
-                          &I.sdf_values, &I.xbuf[0], &I.xbuf[1], &I.ck, &I.f, &I.D, &I.S, &I.part_eval,
+                          &I.sdf_values, &I.xbuf[0], &I.xbuf[1], &I.ck, &I.f, &I.D, &I.Dsp, &I.S, &I.part_eval,
                           &I.part_step, &I.ctrl, &I.upd_norm, &I.hist, &I.sums, &I.arrivals})
     s += b->bytes;
   return s;

@@ -5,8 +5,10 @@
 //
 // The energy terms are those of native/core/sim/terms (one implementation per
 // term); the step is sim/jacobi_step.hpp; the control logic below mirrors
-// Simulator::solve_chebyshev (solvers.cpp) rule for rule, kept on the device so
-// that the host only looks in every few dozen iterations.
+// Simulator::solve_chebyshev (solvers.cpp) rule for rule (the lagged spring
+// blocks and bounded far steps included; SolveSettings::momentum_restart, off by
+// default, is the CPU's only), kept on the device so that the host only looks
+// in every few dozen iterations.
 #pragma once
 #include <cmath>
 #include <cstdint>
@@ -60,12 +62,16 @@ enum Term { kStretch = 0, kSewing, kBending, kGravity, kSticking, kBarrier, kTer
 // are the vertex's totals. With lanes = 1 this is Simulator::evaluate term for
 // term and in the same order. s: the barrier field sample at x_v, read when
 // known, written otherwise (lane 0).
+// spring_blocks: compute the springs' Hessian blocks; Dsp receives this lane's
+// springs' share of D. Otherwise (Simulator::evaluate's reuse_spring_diag)
+// they are skipped and D starts from Dsp as given: the share stored at the last
+// refresh on lane 0, zero on the others.
 template <class R>
 SF_HD void eval_vertex_part(const DevModel<R>& m, const double* x, int v, int lane, int lanes, bool known,
-                            SdfSample& s, Vec3& g, Sym3& D, double e[kTerms]) {
+                            bool spring_blocks, SdfSample& s, Vec3& g, Sym3& Dsp, Sym3& D, double e[kTerms]) {
   const Vec3 xv = load3(x, v);
   g = make_vec3(0, 0, 0);
-  D = sim::sym3_zero();
+  D = spring_blocks ? sim::sym3_zero() : Dsp;
   for (int t = 0; t < kTerms; ++t) e[t] = 0;
   if (m.Y > 0) {
     for (int k = m.vs_ptr[v] + lane; k < m.vs_ptr[v + 1]; k += lanes) {
@@ -74,10 +80,11 @@ SF_HD void eval_vertex_part(const DevModel<R>& m, const double* x, int v, int la
       const double L = double(m.rest_L[sp]), r = double(m.shirring[sp]);
       const Vec3 ge = sim::patch_spring_grad(xi, xj, L, r, m.Y);
       if (code & 1) g -= ge; else g += ge;
-      D += sim::patch_spring_hess(xi, xj, L, r, m.Y, true);
+      if (spring_blocks) D += sim::patch_spring_hess(xi, xj, L, r, m.Y, true);
       e[kStretch] += 0.5 * sim::patch_spring_energy(xi, xj, L, r, m.Y);
     }
   }
+  if (spring_blocks) Dsp = D;
   if (m.Ys > 0) {
     const int b = m.vw_ptr[v], en = m.vw_ptr[v + 1];
     for (int k = b + lane; k < en; k += lanes) {
@@ -126,7 +133,8 @@ template <class R>
 SF_HD void eval_vertex(const DevModel<R>& m, const double* x, int v, bool known, SdfSample& s, Vec3& f, Sym3& D,
                        double e[kTerms]) {
   Vec3 g;
-  eval_vertex_part(m, x, v, 0, 1, known, s, g, D, e);
+  Sym3 Dsp;
+  eval_vertex_part(m, x, v, 0, 1, known, true, s, g, Dsp, D, e);
   f = -g;
 }
 
@@ -209,9 +217,17 @@ struct Ctrl {
   double tol = 0, weight_norm = 1;
   int max_it = 0, warmup = 16, check = 8, history_every = 0, hist_cap = 0, auto_rho = 1;
   double rho_max = 0;  // the adapted rho's upper bound: SolveSettings::rho_max, set by the solve
+  double alpha0 = 0.9;  // the step length the regrowth returns to (SolveSettings::alpha, clamped)
+  // SolveSettings::precond_refresh (1 here: every evaluation refreshes and
+  // nothing is stored, as time_kernels measures) and far_step_threshold.
+  int precond_refresh = 1;
+  double far = 0;
   // State.
   int it = 0, k = 0, rises = 0, done = 0, status = kRunning, mode = kInit, save_ck = 0, cur = 0;
   double E = 0, Eck = 0, rho = 0, alpha = 0.9, omega = 1, res = 0;
+  // solve_chebyshev's economy, good_checks and since_refresh; reuse: the next
+  // evaluation takes the springs' blocks stored at the last refresh.
+  int economy = 1, good_checks = 0, since_refresh = 0, reuse = 0;
   double terms[kTerms] = {0, 0, 0, 0, 0, 0};
   int restarts = 0, hist_count = 0;
   long long rejected = 0;
@@ -228,12 +244,9 @@ SF_HD bool finite(double a) {
 #endif
 }
 
-// Called once per iteration slot with the reduced sums; new_cur: the buffer
-// that now holds the current positions. now_s: seconds since the solve began
-// (for the residual history).
-SF_HD void ctrl_update(Ctrl& c, const double sums[kSums], int new_cur, double* upd_norm, double* hist,
-                       double now_s) {
-  if (c.done) return;
+// The rules of ctrl_update below, less the preconditioner's bookkeeping.
+SF_HD void ctrl_rules(Ctrl& c, const double sums[kSums], int new_cur, double* upd_norm, double* hist,
+                      double now_s) {
   c.cur = new_cur;
   c.save_ck = 0;
   for (int t = 0; t < kTerms; ++t) c.terms[t] = sums[t];
@@ -260,6 +273,8 @@ SF_HD void ctrl_update(Ctrl& c, const double sums[kSums], int new_cur, double* u
         if (c.auto_rho) c.rho = sim::step_max(0.0, 1.0 - 2.0 * (1.0 - c.rho));
         else c.rho *= 0.9;
         if (c.rises >= 3) c.alpha = sim::step_max(0.5 * c.alpha, 1e-3);
+        c.economy = 0;
+        c.good_checks = 0;
         ++c.it;
         return;
       }
@@ -267,6 +282,13 @@ SF_HD void ctrl_update(Ctrl& c, const double sums[kSums], int new_cur, double* u
       c.Eck = E;
       c.rises = 0;
       if (c.auto_rho && c.k > c.warmup) c.rho = ctrl_min(1.0 - 0.9 * (1.0 - c.rho), c.rho_max);
+      // Still descending: a step length cut by earlier rises grows back, and
+      // the preconditioner's economy resumes.
+      if (++c.good_checks >= sim::kRecoverChecks) {
+        c.alpha = ctrl_min(sim::kAlphaRegrowth * c.alpha, c.alpha0);
+        c.economy = 1;
+        c.good_checks = 0;
+      }
     }
     ++c.it;
   } else if (c.mode == kFinalRestore) {
@@ -319,6 +341,21 @@ SF_HD void ctrl_update(Ctrl& c, const double sums[kSums], int new_cur, double* u
   } else {
     c.omega = 4.0 / (4.0 - c.rho * c.rho * c.omega);
   }
+}
+
+// Called once per iteration slot, after its evaluation, with the reduced sums;
+// new_cur: the buffer that now holds the current positions. now_s: seconds
+// since the solve began (for the residual history). Besides the rules, the
+// preconditioner's bookkeeping of solve_chebyshev's eval: the evaluation just
+// done refreshed the springs' blocks unless c.reuse, and the next one reuses
+// them by the CPU's rule, where only an evaluation after a step (kStep) counts
+// as known (restores and the start state refresh).
+SF_HD void ctrl_update(Ctrl& c, const double sums[kSums], int new_cur, double* upd_norm, double* hist,
+                       double now_s) {
+  if (c.done) return;
+  c.since_refresh = c.reuse ? c.since_refresh + 1 : 0;
+  ctrl_rules(c, sums, new_cur, upd_norm, hist, now_s);
+  c.reuse = !c.done && sim::reuse_spring_blocks(c.economy != 0, c.mode == kStep, c.since_refresh, c.precond_refresh);
 }
 
 }  // namespace seamfit::cuda

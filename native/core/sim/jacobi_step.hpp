@@ -25,6 +25,30 @@ constexpr double kFarMargin = 0.002;
 
 SF_HD double far_field_distance(double barrier_distance) { return barrier_distance + kFarMargin; }
 
+// ---- Chebyshev control rules, shared by solvers.cpp and the CUDA control step
+// (sim_iteration.cuh) so that both take the same decisions from SolveSettings.
+
+// The `far` argument of barrier_safe_step for SolveSettings::far_bound: 0
+// samples every step.
+SF_HD double far_step_threshold(bool far_bound, double barrier_distance) {
+  return far_bound ? far_field_distance(barrier_distance) : 0.0;
+}
+
+// Whether an evaluation takes the springs' share of the Jacobi blocks from the
+// last refresh (SolveSettings::precond_refresh). known: the evaluation follows
+// a step (its field samples came from the step), not a (re)start;
+// since_refresh: evaluations since the last refresh; economy: off after an
+// energy rise until kRecoverChecks good checkpoints in a row.
+SF_HD bool reuse_spring_blocks(bool economy, bool known, int since_refresh, int precond_refresh) {
+  const int every = precond_refresh > 1 ? precond_refresh : 1;
+  return economy && known && since_refresh < every - 1;
+}
+
+// Consecutive checkpoints with falling energy after which the step length grows
+// back by kAlphaRegrowth (up to its setting) and the economy resumes.
+constexpr int kRecoverChecks = 16;
+constexpr double kAlphaRegrowth = 1.25;
+
 // std::max semantics (a NaN first argument is returned), usable in kernels.
 SF_HD double step_max(double a, double b) { return a < b ? b : a; }
 

@@ -73,11 +73,13 @@ struct SolveSettings {
   int momentum_restart = 0;
   // Newton: block-Jacobi sweeps after each Newton step (0: pure Newton).
   int newton_smoothing = 0;
-  // Economies of the CPU's Chebyshev loop (the GPU does neither, so a CPU run
-  // with 1 and false takes the GPU's very iteration): the springs' share of the
-  // Jacobi blocks is refreshed every precond_refresh iterations (it changes
-  // slowly, and costs a third of an evaluation), and a step that provably ends
-  // beyond the barrier's reach is bounded instead of sampled (far_bound).
+  // Economies of the Chebyshev loop, CPU and GPU alike (the rules are shared,
+  // sim/jacobi_step.hpp): the springs' share of the Jacobi blocks is refreshed
+  // every precond_refresh iterations (it changes slowly, and costs a third of an
+  // evaluation; only while the energy keeps falling), and a step that provably
+  // ends beyond the barrier's reach is bounded instead of sampled (far_bound).
+  // They change the drape, not only its cost: with 1 and false the GarmentCode
+  // pants (3 cm mesh) settle 4.2 cm lower than with 4 and true (2.06 against 1.21 J).
   int precond_refresh = 4;
   bool far_bound = true;
 };

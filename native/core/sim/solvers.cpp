@@ -94,11 +94,12 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   // (measured: a circle skirt's flare locked in an exact 4-cycle, period of
   // the refresh, every plain Jacobi step undone). So the economy holds only
   // while the iteration descends: an energy rise suspends it until 16 good
-  // checkpoints in a row, like the step length.
+  // checkpoints in a row, like the step length (the rule is
+  // reuse_spring_blocks in sim/jacobi_step.hpp, shared with the GPU).
   bool economy = true;
   int since_refresh = 0;
   auto eval = [&](std::vector<double>& xx, bool known) -> double {
-    const bool reuse = economy && known && since_refresh < std::max(st.precond_refresh, 1) - 1;
+    const bool reuse = reuse_spring_blocks(economy, known, since_refresh, st.precond_refresh);
     since_refresh = reuse ? since_refresh + 1 : 0;
     evaluate(xx.data(), f.data(), &et, D.data(), bar ? S.data() : nullptr, known && bar, reuse);
     return et.total();
@@ -118,7 +119,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   bool fresh_seq = false;        // the Chebyshev sequence restarts at the next step
   std::vector<double> upd_norm;  // |dx| during warm-up, for the rho estimate
   // Beyond this phi (a margin past the barrier's reach) vertices skip the SDF.
-  const double far = st.far_bound ? far_field_distance(params_.barrier_distance) : 0.0;
+  const double far = far_step_threshold(st.far_bound, params_.barrier_distance);
 
   int it = 0;
   for (;; ++it) {
@@ -245,8 +246,8 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
         // Still descending: widen the Chebyshev interval towards 1, and let a
         // step length cut by earlier rises grow back.
         if (auto_rho && k > warmup) rho = std::min(1.0 - 0.9 * (1.0 - rho), st.rho_max);
-        if (++good_checks >= 16) {
-          alpha = std::min(1.25 * alpha, alpha0);
+        if (++good_checks >= kRecoverChecks) {
+          alpha = std::min(kAlphaRegrowth * alpha, alpha0);
           economy = true;
           good_checks = 0;
         }

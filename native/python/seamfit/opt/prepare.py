@@ -39,7 +39,8 @@ def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, 
     from ..sim.multilevel import drape_coarse_to_fine
     # The device is not an input of the physics: a drape made on the GPU serves the CPU too.
     physics = {k: v for k, v in asdict(settings).items() if k != "device"}
-    key = content_key("base-drape-2", mesh.cache_key(), body.vertices, body.faces, float(sdf.spacing),
+    # -3: a drape the GPU made before it followed the CPU's solver rules may sit elsewhere.
+    key = content_key("base-drape-3", mesh.cache_key(), body.vertices, body.faces, float(sdf.spacing),
                       asdict(fabric), physics)
     hit = None if refresh else load_arrays("drape", key, expect={"x": mesh.x0.shape})
     if hit is not None and hit["x"].shape == mesh.x0.shape:

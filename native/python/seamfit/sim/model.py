@@ -82,8 +82,8 @@ class SimSettings:
     history_every: int = 10
     threads: int = 0                   # OpenMP threads, 0 = automatic
     momentum_restart: int = 0          # Chebyshev: 0 energy checks only, 1 global, 2 per-vertex gradient restart
-    precond_refresh: int = 4           # Chebyshev (CPU): refresh the springs' Jacobi blocks every N iterations
-    far_bound: bool = True             # Chebyshev (CPU): bound, not sample, steps beyond the barrier's reach
+    precond_refresh: int = 4           # Chebyshev (CPU and GPU): refresh the springs' Jacobi blocks every N iterations
+    far_bound: bool = True             # Chebyshev (CPU and GPU): bound, not sample, steps beyond the barrier's reach
     device: str = "cpu"                # where solves run: "cpu" or "cuda" (docs/gpu.md)
     # Dressing stages (see Simulator.drape).
     sew_first: bool = True             # stage 1: close the seams with gravity off

@@ -60,6 +60,48 @@ def check_pattern(pattern) -> list[str]:
     return [str(w) for w in seamfit_module("pattern").check_pattern(pattern).warnings]
 
 
+def edges_in_order(panel):
+    """The panel's edges in outline order, or None when they do not run around the outline."""
+    try:
+        return seamfit_module("pattern.edit").edges_in_order(panel, panel.name)
+    except seamfit_module("errors").PatternError:
+        return None
+
+
+def edit_pattern(pattern, changes: dict):
+    """``pattern`` with new edge curves: ``changes[panel][edge id]`` = dict(kind, p0, p1,
+    ctrl, arc); outlines sampled again, stitches kept on their edges."""
+    from seamfit.pattern.model import Edge
+    new = {name: {eid: Edge(id=eid, start=0, end=0, kind=d["kind"], p0=tuple(d["p0"]), p1=tuple(d["p1"]),
+                            ctrl=[tuple(c) for c in d.get("ctrl", [])], arc=d.get("arc"))
+                  for eid, d in per.items()}
+           for name, per in changes.items() if per}
+    return seamfit_module("pattern.edit").edit_edges(pattern, new)
+
+
+def arc_through(p0, p1, samples):
+    return seamfit_module("pattern.edit").arc_through(p0, p1, samples)
+
+
+def cubic_through(p0, p1, samples):
+    return seamfit_module("pattern.edit").cubic_through(p0, p1, samples)
+
+
+def check_edited(pattern, where: str) -> list[str]:
+    """Validate an edited pattern as a file is validated; the first error as one line
+    naming the panel or stitch (and how many more there are). Returns the warnings."""
+    source = pattern.source_file
+    pattern.source_file = where
+    try:
+        report = seamfit_module("pattern").validate_pattern(pattern)
+    finally:
+        pattern.source_file = source
+    if report.errors:
+        more = len(report.errors) - 1
+        raise AddonError(report.errors[0] + (f" (and {more} more error{'s' if more > 1 else ''})" if more else ""))
+    return [str(w) for w in report.warnings]
+
+
 def pattern_to_json(pattern) -> str:
     sewpat = seamfit_module("pattern.sewpat")
     return json.dumps(sewpat.pattern_to_dict(pattern), sort_keys=True)

@@ -143,6 +143,46 @@ class SEAMFIT_OT_export_pattern(bpy.types.Operator, ExportHelper):
         return {"FINISHED"}
 
 
+class SEAMFIT_OT_apply_edits(bpy.types.Operator):
+    """Read the edited panel curves back into the pattern, check it as a file is checked,
+    and keep it in the scene (the pattern file is never changed)"""
+    bl_idname = "seamfit.apply_edits"
+    bl_label = "Apply Curve Edits"
+    bl_options = {"REGISTER", "UNDO"}
+
+    collection: StringProperty(name="Pattern", description="Name of the pattern collection (the active "
+                               "pattern when empty)")
+
+    def execute(self, context):
+        try:
+            coll = _pattern_collection(context, self.collection)
+            edited, warnings = scene_io.apply_edits(coll)
+        except compute.user_errors() as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        for w in warnings:
+            self.report({"WARNING"}, w)
+        if not edited:
+            self.report({"INFO"}, f"{coll.name}: no curve was edited")
+        else:
+            self.report({"INFO"}, f"{coll.name}: applied the edits of {len(edited)} panel(s) "
+                                  f"({', '.join(edited)})")
+        return {"FINISHED"}
+
+
+def _pattern_collection(context, name: str):
+    """The pattern collection called ``name``, or the active pattern."""
+    if name:
+        coll = bpy.data.collections.get(name)
+        if coll is None:
+            raise compute.AddonError(f"no collection named {name!r}")
+        return coll
+    coll = context.scene.seamfit.pattern
+    if coll is None:
+        raise compute.AddonError("no pattern: import one or pick it in the Patterns panel")
+    return coll
+
+
 class SEAMFIT_OT_check_bodies(bpy.types.Operator):
     """Check the base and target bodies and measure their height and girths"""
     bl_idname = "seamfit.check_bodies"
@@ -269,7 +309,7 @@ def menu_export(self, context):
     self.layout.operator(SEAMFIT_OT_export_pattern.bl_idname, text="Sewing Pattern (.json, .svg)")
 
 
-CLASSES = (SEAMFIT_OT_import_pattern, SEAMFIT_OT_export_pattern, SEAMFIT_OT_check_bodies,
+CLASSES = (SEAMFIT_OT_import_pattern, SEAMFIT_OT_export_pattern, SEAMFIT_OT_apply_edits, SEAMFIT_OT_check_bodies,
            SEAMFIT_OT_compare, SEAMFIT_OT_clear_cache)
 
 

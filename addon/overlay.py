@@ -10,20 +10,26 @@ import numpy as np
 from . import scene_io
 
 _handles: list = []
-_stitch_ranges: dict = {}
+_parsed: dict = {}
 
 
-def _ranges(coll) -> list:
-    """Side A (panel, range) of every stitch, parsed once per stored pattern."""
+def _stored(coll) -> tuple[list, dict]:
+    """Side A (panel, range) of every stitch and each panel's outline (local m), parsed once
+    per stored pattern (Apply Curve Edits stores an edited one)."""
     text = coll[scene_io.PATTERN_KEY]
     key = (coll.name, hash(text))
-    if key not in _stitch_ranges:
+    if key not in _parsed:
         import json
-        if len(_stitch_ranges) > 32:
-            _stitch_ranges.clear()
-        _stitch_ranges[key] = [(s["a"]["panel"], tuple(s["a"]["range"]))
-                               for s in json.loads(text)["stitches"]]
-    return _stitch_ranges[key]
+        if len(_parsed) > 32:
+            _parsed.clear()
+        d = json.loads(text)
+        outlines = {}
+        for p in d["panels"]:
+            o = np.zeros((len(p["outline_cm"]), 4))
+            o[:, :2], o[:, 3] = 0.01 * np.asarray(p["outline_cm"], dtype=float), 1.0
+            outlines[p["name"]] = o
+        _parsed[key] = ([(s["a"]["panel"], tuple(s["a"]["range"])) for s in d["stitches"]], outlines)
+    return _parsed[key]
 
 
 def overlay_items(scene) -> dict:
@@ -34,19 +40,16 @@ def overlay_items(scene) -> dict:
         if not scene_io.is_pattern_collection(coll) or coll.seamfit.role in ("drape", "mesh"):
             continue
         objs = scene_io.panel_objects(coll)
+        ranges, outlines = _stored(coll)
         pts_world = {}
         for name, obj in objs.items():
-            if obj.type != "CURVE" or not obj.visible_get() or not obj.data.splines:
+            if obj.type != "CURVE" or not obj.visible_get() or name not in outlines:
                 continue
-            pts = obj.data.splines[0].points
-            co = np.zeros(len(pts) * 4)
-            pts.foreach_get("co", co)
-            m = np.array(obj.matrix_world)
-            w = co.reshape(-1, 4)[:, :3] @ m[:3, :3].T + m[:3, 3]
+            w = (outlines[name] @ np.array(obj.matrix_world).T)[:, :3]
             pts_world[name] = w
             idx = [i for i in obj.get("seamfit_corners", []) if 0 <= i < len(w)]
             corners.extend(w[idx])
-        for (panel, (i0, i1)), info in zip(_ranges(coll), coll.seamfit.stitches):
+        for (panel, (i0, i1)), info in zip(ranges, coll.seamfit.stitches):
             w = pts_world.get(panel)
             if w is None:
                 continue

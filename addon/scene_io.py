@@ -18,7 +18,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from . import compute
+from . import compute, panel_curves
 
 PATTERN_KEY = "seamfit_pattern"   # collection: the sewpat-1 JSON the objects came from
 ROLE_KEY = "seamfit_role"         # collection: "pattern" | "graded" | "drape"
@@ -33,11 +33,6 @@ DISPLAY_MODIFIERS = ("seamfit refine", "seamfit outside body")
 DISPLAY_CLEARANCE_M = 0.002
 # Display refinement: edges are split until they are about this long.
 _DISPLAY_EDGE_M = 0.008
-
-# Precision Blender keeps for curve points (float32 in metres), in cm: an exported outline
-# keeps the pattern's own float64 values where the curve was not edited.
-_UNEDITED_CM = 1e-3
-
 
 @contextmanager
 def building():
@@ -108,18 +103,12 @@ def _panel_curve(name: str, panel, made: list, index: int = 0) -> bpy.types.Obje
     # A flat 2D curve: Blender fills its interior, so each panel reads as a piece of cloth.
     cu.dimensions = "2D"
     cu.fill_mode = "BOTH"
-    sp = cu.splines.new("POLY")
-    n = panel.n_vertices
-    sp.points.add(n - 1)
-    co = np.zeros((n, 4))
-    co[:, :2] = 0.01 * panel.outline_cm
-    co[:, 3] = 1.0
-    sp.points.foreach_set("co", co.ravel())
-    sp.use_cyclic_u = True
+    owner = panel_curves.build_spline(cu, panel)
     obj = _new_object(name, cu, made)
     obj.matrix_world = placement_matrix(panel.placement)
     obj[PANEL_KEY] = panel.name
     obj["seamfit_corners"] = [int(i) for i in panel.corners]
+    panel_curves.remember(obj, owner)
     obj.show_name = True
     obj.color = _PALETTE[index % len(_PALETTE)]
     return obj
@@ -128,6 +117,14 @@ def _panel_curve(name: str, panel, made: list, index: int = 0) -> bpy.types.Obje
 def _stitch_object(name: str, pattern, made: list) -> bpy.types.Object:
     """Loose edges joining matching points of both sides of every stitch: Blender's cloth
     sewing convention (a cloth modifier with sewing springs pulls them together)."""
+    obj = _new_object(name, _stitch_mesh(name, pattern, made), made)
+    obj.display_type = "WIRE"
+    obj.show_in_front = True
+    obj.hide_render = True
+    return obj
+
+
+def _stitch_mesh(name: str, pattern, made: list) -> bpy.types.Mesh:
     verts, edges, stitch_of_edge = [], [], []
     for k, st in enumerate(pattern.stitches):
         a, b = compute.stitch_pairs_world(pattern, st)
@@ -143,11 +140,7 @@ def _stitch_object(name: str, pattern, made: list) -> bpy.types.Object:
     if stitch_of_edge:
         attr.data.foreach_set("value", np.asarray(stitch_of_edge, dtype=np.int32))
     me.update()
-    obj = _new_object(name, me, made)
-    obj.display_type = "WIRE"
-    obj.show_in_front = True
-    obj.hide_render = True
-    return obj
+    return me
 
 
 def store_summary(coll, pattern, role: str, source: str = "", body: str = "") -> None:
@@ -199,39 +192,92 @@ def panel_objects(coll) -> dict[str, bpy.types.Object]:
     return {o[PANEL_KEY]: o for o in coll.objects if PANEL_KEY in o}
 
 
-def pattern_from_collection(coll):
-    """The pattern as the scene shows it now: the stored pattern with each panel's
-    outline and placement read back from its curve object (so edits are exported)."""
+def pattern_from_collection(coll, validate: bool = True):
+    """The pattern as the scene shows it now: the stored pattern with each panel's curves
+    (points and handles) and placement read back from its object, so edits reach export,
+    drape and adjust. Edited edges are sampled again and the stitches stay on them; an
+    edited pattern is validated as a file is (one line naming the panel or stitch)."""
+    pattern, edited = _read_collection(coll)
+    if edited and validate:
+        compute.check_edited(pattern, f"pattern {coll.name!r}")
+    return pattern
+
+
+def _read_collection(coll):
+    """(pattern as the scene shows it, names of the panels whose curves were edited)."""
     if not is_pattern_collection(coll):
         raise compute.AddonError(f"collection {coll.name!r} holds no seamfit pattern")
     pattern = compute.pattern_from_json(coll[PATTERN_KEY], source=f"collection {coll.name!r}")
     # Where it came from: seamfit then refuses to export over the user's original file.
     pattern.source_file = coll.seamfit.source or None
     objs = panel_objects(coll)
+    changes, edited = {}, []
     for pn in pattern.panels:
         obj = objs.get(pn.name)
         if obj is None:
             raise compute.AddonError(f"pattern {coll.name!r}: the object of panel {pn.name!r} was deleted")
-        if obj.type != "CURVE" or len(obj.data.splines) != 1:
-            raise compute.AddonError(f"panel {pn.name!r}: its object must stay one curve with one spline")
-        pts = obj.data.splines[0].points
-        if len(pts) != pn.n_vertices:
-            raise compute.AddonError(
-                f"panel {pn.name!r}: the outline has {len(pts)} points but the pattern's stitches and "
-                f"curves refer to {pn.n_vertices}; move points instead of adding or deleting them")
-        co = np.zeros(len(pts) * 4)
-        pts.foreach_get("co", co)
         loc, rot, scale = obj.matrix_world.decompose()
-        uv = co.reshape(-1, 4)[:, :2] * np.array(scale[:2]) * 100.0
-        keep = np.linalg.norm(uv - pn.outline_cm, axis=1) < _UNEDITED_CM
-        pn.outline_cm = np.where(keep[:, None], pn.outline_cm, uv)
+        if obj.type == "CURVE" and len(obj.data.splines) == 1 and obj.data.splines[0].type == "POLY":
+            outline, per_edge = _poly_outline(obj, pn, scale), {}
+        else:
+            outline, per_edge = panel_curves.read_panel(obj, pn, scale)
+        if outline is not None and not np.array_equal(outline, pn.outline_cm):
+            pn.outline_cm = outline
+            edited.append(pn.name)
+        if per_edge:
+            changes[pn.name] = per_edge
+            edited.append(pn.name)
         R = np.array(rot.to_matrix())
         t = np.array(loc)
         if not (np.allclose(R, pn.placement.rotation, atol=1e-6)
                 and np.allclose(t, pn.placement.translation_m, atol=1e-6)):
             pn.placement.rotation = R
             pn.placement.translation_m = t
-    return pattern
+    if changes:
+        pattern = compute.edit_pattern(pattern, changes)
+    return pattern, edited
+
+
+def _poly_outline(obj, pn, scale) -> np.ndarray:
+    """The outline of a panel drawn as a poly curve (scenes saved by seamfit 0.1.0 before its
+    panels were Bezier curves): one curve point per outline point."""
+    pts = obj.data.splines[0].points
+    if len(pts) != pn.n_vertices:
+        raise compute.AddonError(
+            f"panel {pn.name!r}: the outline has {len(pts)} points but the pattern's stitches and "
+            f"curves refer to {pn.n_vertices}; move points instead of adding or deleting them")
+    co = np.zeros(len(pts) * 4)
+    pts.foreach_get("co", co)
+    uv = co.reshape(-1, 4)[:, :2] * np.array(scale[:2]) * 100.0
+    keep = np.linalg.norm(uv - pn.outline_cm, axis=1) < panel_curves.UNEDITED_CM
+    return np.where(keep[:, None], pn.outline_cm, uv)
+
+
+def apply_edits(coll) -> tuple[list[str], list[str]]:
+    """Hold the pattern as edited in the scene: the collection stores it (the file it came
+    from is never touched), the edited panels are drawn again from their new edges, the
+    stitches and the panel list follow. Returns (edited panels, validation warnings)."""
+    pattern, edited = _read_collection(coll)
+    warnings = compute.check_edited(pattern, f"pattern {coll.name!r}") if edited else []
+    objs = panel_objects(coll)
+    for name in dict.fromkeys(edited):
+        pn, obj = pattern.panel(name), objs[name]
+        obj.data.splines.clear()
+        owner = panel_curves.build_spline(obj.data, pn)
+        obj.matrix_world = placement_matrix(pn.placement)      # a scale is in the outline now
+        obj["seamfit_corners"] = [int(i) for i in pn.corners]
+        panel_curves.remember(obj, owner)
+    for obj in coll.objects:
+        if obj.type == "MESH" and PANEL_KEY not in obj and "stitch" in obj.data.attributes and edited:
+            old = obj.data
+            obj.data = _stitch_mesh(old.name, pattern, [])
+            if old.users == 0:
+                bpy.data.meshes.remove(old)
+            obj.data.name = obj.get("seamfit_name", obj.name)
+    coll[PATTERN_KEY] = compute.pattern_to_json(pattern)
+    info = coll.seamfit
+    store_summary(coll, pattern, info.role, info.source, info.body)
+    return list(dict.fromkeys(edited)), warnings
 
 
 def remove_collection(coll, foreign_to=None) -> None:

@@ -52,6 +52,7 @@ class SEAMFIT_PT_patterns(_SeamfitPanel, bpy.types.Panel):
         layout.label(text=f"Stitches ({len(info.stitches)}): length of side A / side B")
         layout.template_list("SEAMFIT_UL_stitches", "", info, "stitches", info, "active_stitch", rows=3)
         layout.prop(s, "show_overlay")
+        layout.operator("seamfit.apply_edits", icon="CURVE_BEZCURVE").collection = coll.name
         row = layout.row(align=True)
         op = row.operator("seamfit.export_pattern", text="Export sewpat-1", icon="EXPORT")
         op.format, op.collection = "SEWPAT", coll.name

@@ -43,9 +43,11 @@ def object_fingerprint(obj) -> tuple:
     elif obj.type == "CURVE":
         parts = []
         for sp in obj.data.splines:
-            co = np.empty(len(sp.points) * 4)
-            sp.points.foreach_get("co", co)
-            parts.append(hashlib.sha1(co.tobytes()).hexdigest())
+            for pts, attrs in ((sp.points, ("co",)), (sp.bezier_points, ("co", "handle_left", "handle_right"))):
+                for attr in attrs:
+                    co = np.empty(len(pts) * len(getattr(pts[0], attr)) if len(pts) else 0)
+                    pts.foreach_get(attr, co)
+                    parts.append(hashlib.sha1(co.tobytes()).hexdigest())
         data = tuple(parts)
     m = tuple(round(v, 9) for row in obj.matrix_world for v in row)
     return (obj.name, obj.type, m, data, tuple(sorted(c.name for c in obj.users_collection)))
@@ -95,3 +97,12 @@ def extension_site_packages() -> Path:
     import sys
     (site,) = [p for p in sys.path if p.endswith("site-packages") and "extensions" in p]
     return Path(site)
+
+
+def bezier_world(obj, attr: str = "co") -> np.ndarray:
+    """The curve points (or handles) of a panel's Bezier curve, in world metres."""
+    bp = obj.data.splines[0].bezier_points
+    co = np.empty(len(bp) * 3)
+    bp.foreach_get(attr, co)
+    m = np.array(obj.matrix_world)
+    return co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]

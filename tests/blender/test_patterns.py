@@ -6,8 +6,8 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import (BODICE, PENCIL, PENCIL_GC_SPEC, addon, file_digest, object_fingerprint, scene_fingerprint,
-                     undo, undo_push)
+from helpers import (BODICE, PENCIL, PENCIL_GC_SPEC, addon, bezier_world, file_digest, object_fingerprint,
+                     scene_fingerprint, undo, undo_push)
 
 
 def _read(path):
@@ -15,12 +15,10 @@ def _read(path):
     return read_sewpat(path)
 
 
-def _curve_world_points(obj) -> np.ndarray:
-    pts = obj.data.splines[0].points
-    co = np.empty(len(pts) * 4)
-    pts.foreach_get("co", co)
-    m = np.array(obj.matrix_world)
-    return co.reshape(-1, 4)[:, :3] @ m[:3, :3].T + m[:3, 3]
+def _nodes_world(pn) -> np.ndarray:
+    """Where a panel's curve points belong: the start of every edge, in outline order."""
+    starts = sorted(e.start for e in pn.edges)
+    return pn.placement.to_world(pn.outline_cm[starts])
 
 
 def _pattern_collections():
@@ -41,12 +39,24 @@ def test_import_builds_one_flat_curve_per_panel(scene, path):
         obj = panels[pn.name]
         assert obj.type == "CURVE" and obj.data.dimensions == "2D"
         (spline,) = obj.data.splines
-        assert spline.use_cyclic_u and len(spline.points) == pn.n_vertices
+        # A Bezier curve with a point at the start of every edge (these patterns have no arcs).
+        assert spline.type == "BEZIER" and spline.use_cyclic_u and len(spline.bezier_points) == len(pn.edges)
         # Flat in its own frame, and placed where the pattern puts the panel (float32 curve points).
-        co = np.empty(len(spline.points) * 4)
-        spline.points.foreach_get("co", co)
-        assert np.all(co.reshape(-1, 4)[:, 2] == 0.0)
-        assert np.allclose(_curve_world_points(obj), pn.placement.to_world(pn.outline_cm), atol=2e-6)
+        co = np.empty(len(spline.bezier_points) * 3)
+        spline.bezier_points.foreach_get("co", co)
+        assert np.all(co.reshape(-1, 3)[:, 2] == 0.0)
+        assert np.allclose(bezier_world(obj), _nodes_world(pn), atol=2e-6)
+        # The handles are the edges' control points: lines have vector handles a third along.
+        right, left = bezier_world(obj, "handle_right"), bezier_world(obj, "handle_left")
+        for j, e in enumerate(sorted(pn.edges, key=lambda e: e.start)):
+            p0, p1, c = np.array(e.p0), np.array(e.p1), np.array(e.ctrl).reshape(-1, 2)
+            ctrl = {"line": lambda: [p0 + (p1 - p0) / 3, p1 + (p0 - p1) / 3],
+                    "quadratic": lambda: [p0 + 2 / 3 * (c[0] - p0), p1 + 2 / 3 * (c[0] - p1)],
+                    "cubic": lambda: list(c)}[e.kind]()
+            assert np.allclose([right[j], left[(j + 1) % len(pn.edges)]], pn.placement.to_world(np.array(ctrl)),
+                               atol=2e-6)
+            point = spline.bezier_points[j]
+            assert (point.handle_right_type == "VECTOR") == (e.kind == "line")
         assert list(obj["seamfit_corners"]) == pn.corners
         assert obj.show_name
     # The summary the panels draw: names, corners, stitch lengths.
@@ -131,16 +141,20 @@ def test_export_takes_edits_from_the_curves(scene, tmp_out):
     bpy.ops.seamfit.import_pattern(filepath=str(PENCIL))
     pattern = _read(PENCIL)
     (coll,) = _pattern_collections()
-    obj = next(o for o in coll.objects if o.get("seamfit_panel") == pattern.panels[0].name)
-    pt = obj.data.splines[0].points[5]
-    pt.co = (pt.co[0] + 0.02, pt.co[1], 0.0, 1.0)     # 2 cm along u
+    pn = pattern.panels[0]
+    obj = next(o for o in coll.objects if o.get("seamfit_panel") == pn.name)
+    # The corner where two straight edges meet moves 2 cm along u.
+    order = sorted(pn.edges, key=lambda e: e.start)
+    j = next(j for j in range(len(order)) if order[j].kind == order[j - 1].kind == "line")
+    pt = obj.data.splines[0].bezier_points[j]
+    pt.co = (pt.co[0] + 0.02, pt.co[1], 0.0)
     obj.location.z += 0.1
     out = tmp_out / "edited.json"
     bpy.ops.seamfit.export_pattern(filepath=str(out), format="SEWPAT")
     edited = _read(out)
-    moved = edited.panels[0].outline_cm - pattern.panels[0].outline_cm
-    assert np.allclose(moved[5], [2.0, 0.0], atol=1e-4)
-    assert np.all(np.delete(moved, 5, axis=0) == 0.0)
+    ep = edited.panels[0]
+    e = next(x for x in ep.edges if x.id == order[j].id)
+    assert np.allclose(ep.outline_cm[e.start], pn.outline_cm[order[j].start] + [2.0, 0.0], atol=1e-4)
     assert edited.panels[0].placement.translation_m[2] == pytest.approx(
         pattern.panels[0].placement.translation_m[2] + 0.1, abs=1e-6)
     for a, b in zip(edited.panels[1:], pattern.panels[1:]):
@@ -151,9 +165,9 @@ def test_export_refuses_a_changed_point_count(scene, tmp_out):
     bpy.ops.seamfit.import_pattern(filepath=str(PENCIL))
     (coll,) = _pattern_collections()
     obj = next(o for o in coll.objects if "seamfit_panel" in o)
-    obj.data.splines[0].points.add(1)
+    obj.data.splines[0].bezier_points.add(1)
     out = tmp_out / "x.json"
-    with pytest.raises(RuntimeError, match="move points instead"):
+    with pytest.raises(RuntimeError, match="instead of adding or deleting them"):
         bpy.ops.seamfit.export_pattern(filepath=str(out), format="SEWPAT")
     assert not out.exists()
 
@@ -164,7 +178,7 @@ def test_export_does_not_clobber_on_failure(scene, tmp_out):
     out.write_text("precious")
     bpy.ops.seamfit.import_pattern(filepath=str(PENCIL))
     (coll,) = _pattern_collections()
-    next(o for o in coll.objects if "seamfit_panel" in o).data.splines[0].points.add(2)
+    next(o for o in coll.objects if "seamfit_panel" in o).data.splines[0].bezier_points.add(2)
     with pytest.raises(RuntimeError):
         bpy.ops.seamfit.export_pattern(filepath=str(out), format="SEWPAT")
     assert out.read_text() == "precious"
@@ -222,8 +236,7 @@ def test_import_garmentcode_specification(scene):
     panels = {o["seamfit_panel"]: o for o in coll.objects if "seamfit_panel" in o}
     assert sorted(panels) == sorted(p.name for p in pattern.panels)
     for pn in pattern.panels:
-        assert np.allclose(_curve_world_points(panels[pn.name]), pn.placement.to_world(pn.outline_cm),
-                           atol=2e-6)
+        assert np.allclose(bezier_world(panels[pn.name]), _nodes_world(pn), atol=2e-6)
     assert len(coll.seamfit.stitches) == len(pattern.stitches) > 0
 
 

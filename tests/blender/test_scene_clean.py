@@ -93,12 +93,10 @@ def test_a_result_missing_objects_is_rebuilt(grading_scene):
     assert _names(coll) == objects
 
 
-def _curve_world(obj):
-    pts = obj.data.splines[0].points
-    co = np.empty(4 * len(pts))
-    pts.foreach_get("co", co)
-    m = np.array(obj.matrix_world)
-    return co.reshape(-1, 4)[:, :3] @ m[:3, :3].T + m[:3, 3]
+def _curve_world(coll, obj):
+    """The panel's outline as the scene holds it (read back from its curve), in world metres."""
+    pn = addon().scene_io.pattern_from_collection(coll).panel(obj["seamfit_panel"])
+    return pn.placement.to_world(pn.outline_cm)
 
 
 def test_compare_lays_base_and_graded_out_flat(grading_scene):
@@ -114,7 +112,7 @@ def test_compare_lays_base_and_graded_out_flat(grading_scene):
     panels = {}
     for copy in (base_copy, graded_copy):
         for name, obj in addon().scene_io.panel_objects(copy).items():
-            w = _curve_world(obj)
+            w = _curve_world(copy, obj)
             assert np.abs(w[:, 2]).max() <= 0.0011          # flat on the floor
             assert w[:, 0].min() > body_right                # beside the bodies, not on them
             panels.setdefault(name, []).append(w)
@@ -139,7 +137,7 @@ def test_compare_lays_base_and_graded_out_flat(grading_scene):
     base_copy, graded_copy = sorted(view.children, key=lambda c: c.name)
     gp = addon().scene_io.panel_objects(graded_copy)
     for name, obj in addon().scene_io.panel_objects(base_copy).items():
-        b, g = _curve_world(obj), _curve_world(gp[name])
+        b, g = _curve_world(base_copy, obj), _curve_world(graded_copy, gp[name])
         top = [np.array([0.5 * (w[:, 0].min() + w[:, 0].max()), w[:, 1].max()]) for w in (b, g)]
         assert np.allclose(top[0], top[1], atol=1e-5)
 

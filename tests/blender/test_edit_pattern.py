@@ -1,0 +1,197 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Editable patterns: panels are Bezier curves; moved points and handles go back into the
+pattern with its stitches kept on their edges, are validated like files, and re-grade."""
+import bpy
+import numpy as np
+import pytest
+
+from helpers import BODICE, PENCIL, SAMPLES, addon, file_digest, scene_fingerprint
+
+CIRCLE = SAMPLES / "patterns" / "gc_circle_skirt" / "size06" / "pattern.json"
+
+
+def _read(path):
+    from seamfit.pattern import load_pattern
+    return load_pattern(path)
+
+
+def _pattern_dict(pattern):
+    from seamfit.pattern.sewpat import pattern_to_dict
+    return pattern_to_dict(pattern)
+
+
+def _imported(path):
+    assert bpy.ops.seamfit.import_pattern(filepath=str(path)) == {"FINISHED"}
+    coll = bpy.context.scene.seamfit.pattern
+    return coll, addon().scene_io.panel_objects(coll)
+
+
+def _order(pn):
+    return sorted(pn.edges, key=lambda e: e.start)
+
+
+def _point_of(obj, edge_id):
+    """The Bezier point where an edge starts."""
+    return obj.data.splines[0].bezier_points[list(obj["seamfit_segments"]).index(edge_id)]
+
+
+def _stitch_edges(pattern):
+    """Each stitch side as the (edge at its first point, edge at its last point) of its panel."""
+    def at(panel, i):
+        return next(e.id for e in panel.edges if e.start == i)
+    return [(side.panel, at(pattern.panel(side.panel), side.range[0]), at(pattern.panel(side.panel), side.range[1]))
+            for s in pattern.stitches for side in (s.a, s.b)]
+
+
+@pytest.mark.parametrize("path", [PENCIL, BODICE, CIRCLE], ids=["lines+quadratics", "cubics", "arcs"])
+def test_unchanged_curves_read_back_losslessly(scene, path):
+    coll, objs = _imported(path)
+    original = _read(path)
+    if path == CIRCLE:      # an arc of more than a quarter turn is drawn with one segment per quarter
+        pn = next(p for p in original.panels if any(e.kind == "arc" for e in p.edges))
+        assert len(objs[pn.name].data.splines[0].bezier_points) > len(pn.edges)
+    back = addon().scene_io.pattern_from_collection(coll)
+    for a, b in zip(back.panels, original.panels):
+        assert np.abs(a.outline_cm - b.outline_cm).max() <= 1e-9
+    assert _pattern_dict(back) == _pattern_dict(original)
+    # Applying no edits changes nothing.
+    before = scene_fingerprint()
+    stored = coll["seamfit_pattern"]
+    assert bpy.ops.seamfit.apply_edits() == {"FINISHED"}
+    assert coll["seamfit_pattern"] == stored and scene_fingerprint() == before
+
+
+def test_moved_point_and_handle_go_back_into_the_pattern(scene, tmp_out):
+    digest = file_digest(PENCIL)
+    coll, objs = _imported(PENCIL)
+    original = _read(PENCIL)
+    pn = next(p for p in original.panels if any(e.kind == "quadratic" for e in p.edges))
+    obj = objs[pn.name]
+    order = _order(pn)
+    # A corner between two straight edges moves 1 cm along u, the first handle of a
+    # quadratic edge 1 cm along u and 0.5 cm along v (1 Blender unit = 1 m).
+    j = next(j for j in range(len(order)) if order[j].kind == order[j - 1].kind == "line")
+    corner, moved_lines = order[j], (order[j - 1].id, order[j].id)
+    quad = next(e for e in order if e.kind == "quadratic")
+    point = _point_of(obj, corner.id)
+    point.co = (point.co[0] + 0.01, point.co[1], 0.0)
+    handle = _point_of(obj, quad.id)
+    handle.handle_right = (handle.handle_right[0] + 0.01, handle.handle_right[1] + 0.005, 0.0)
+
+    assert bpy.ops.seamfit.apply_edits() == {"FINISHED"}
+    edited = addon().scene_io.pattern_from_collection(coll)
+    ep = edited.panel(pn.name)
+    edges = {e.id: e for e in ep.edges}
+    # The corner moved and the edges meeting there stay straight, through it.
+    assert np.allclose(edges[corner.id].p0, np.array(corner.p0) + [1.0, 0.0], atol=1e-4)
+    assert np.allclose(ep.outline_cm[edges[corner.id].start], np.array(corner.p0) + [1.0, 0.0], atol=1e-4)
+    assert edges[moved_lines[0]].kind == edges[moved_lines[1]].kind == "line"
+    assert np.allclose(edges[moved_lines[0]].p1, edges[corner.id].p0)
+    # The quadratic became the cubic its handles now make: one handle moved, the other exact.
+    q0, q1, qc = (np.array(v) for v in (quad.p0, quad.p1, quad.ctrl[0]))
+    e = edges[quad.id]
+    assert e.kind == "cubic"
+    assert np.allclose(e.ctrl[0], q0 + 2 / 3 * (qc - q0) + [1.0, 0.5], atol=1e-4)
+    assert np.array_equal(e.ctrl[1], q1 + 2 / 3 * (qc - q1))
+    # The outline follows the edited curves (samples on the curve, at most 1 cm apart).
+    from seamfit.pattern import curves
+    idx = (e.start + np.arange((e.end - e.start) % ep.n_vertices + 1)) % ep.n_vertices
+    assert curves.distance_to_curve(e, ep.outline_cm[idx[:-1]]).max() < 1e-6    # the end is the next edge's
+    assert np.linalg.norm(np.diff(ep.outline_cm[idx], axis=0), axis=1).max() <= 1.0 + 1e-9
+    # Every other edge of the panel and every other panel are exactly as they were.
+    for old in pn.edges:
+        if old.id not in (quad.id, *moved_lines):
+            new = edges[old.id]
+            assert (new.kind, new.p0, new.p1, new.ctrl) == (old.kind, old.p0, old.p1, old.ctrl)
+    for a, b in zip(edited.panels, original.panels):
+        if a.name != pn.name:
+            assert np.array_equal(a.outline_cm, b.outline_cm) and a.edges == b.edges
+    # Stitches stay on their edges; the stitch on the quadratic edge has its new length.
+    assert len(edited.stitches) == len(original.stitches)
+    assert _stitch_edges(edited) == _stitch_edges(original)
+    on_quad = [k for k, s in enumerate(original.stitches)
+               if any(sd.panel == pn.name and sd.range[0] == quad.start for sd in (s.a, s.b))]
+    assert on_quad
+    for k in on_quad:
+        s0, s1 = original.stitches[k], edited.stitches[k]
+        side = "a" if s0.a.panel == pn.name and s0.a.range[0] == quad.start else "b"
+        assert getattr(s1, f"length_{side}_cm") != pytest.approx(getattr(s0, f"length_{side}_cm"), abs=1e-3)
+    # Held in the scene: the panel list and the stitch lengths follow, and reading the
+    # redrawn curves gives the same pattern; the pattern file is untouched.
+    assert coll.seamfit.panels[pn.name].n_vertices == ep.n_vertices
+    assert _pattern_dict(addon().scene_io.pattern_from_collection(coll)) == _pattern_dict(edited)
+    assert file_digest(PENCIL) == digest
+    with pytest.raises(RuntimeError, match="refus|overwrit|same file"):
+        bpy.ops.seamfit.export_pattern(filepath=str(PENCIL), format="SEWPAT")
+    out = tmp_out / "edited.json"
+    assert bpy.ops.seamfit.export_pattern(filepath=str(out), format="SEWPAT") == {"FINISHED"}
+    assert _pattern_dict(_read(out)) == _pattern_dict(edited)
+    assert file_digest(PENCIL) == digest
+
+
+def test_moved_arc_ends_keep_it_an_arc(scene):
+    coll, objs = _imported(CIRCLE)
+    original = _read(CIRCLE)
+    pn = next(p for p in original.panels if any(e.kind == "arc" for e in p.edges))
+    arc = next(e for e in pn.edges if e.kind == "arc")
+    point = _point_of(objs[pn.name], arc.id)
+    for attr in ("co", "handle_left", "handle_right"):      # as Blender moves a point: with its handles
+        v = getattr(point, attr)
+        setattr(point, attr, (v[0] + 0.01, v[1], 0.0))
+    e = next(x for x in addon().scene_io.pattern_from_collection(coll).panel(pn.name).edges if x.id == arc.id)
+    assert e.kind == "arc"
+    assert np.allclose(e.p0, np.array(arc.p0) + [1.0, 0.0], atol=1e-4) and e.p1 == arc.p1
+
+
+def test_self_intersecting_edit_is_one_line_naming_the_panel(scene, tmp_out):
+    coll, objs = _imported(PENCIL)
+    pn = _read(PENCIL).panels[0]
+    obj = objs[pn.name]
+    # A corner dragged through the panel to beyond its far side.
+    pts = obj.data.splines[0].bezier_points
+    co = np.array([p.co[:2] for p in pts])
+    far = int(np.argmax(np.linalg.norm(co - co[0], axis=1)))
+    pts[0].co = (*(co[0] + 1.2 * (co[far] - co[0])), 0.0)
+    before = scene_fingerprint()
+    for op in (bpy.ops.seamfit.apply_edits, lambda: bpy.ops.seamfit.export_pattern(
+            filepath=str(tmp_out / "never.json"), format="SEWPAT")):
+        with pytest.raises(RuntimeError) as info:
+            op()
+        message = str(info.value).strip()
+        assert "\n" not in message
+        assert f"panel {pn.name!r}" in message and "self-intersecting" in message
+    assert scene_fingerprint() == before
+    assert not (tmp_out / "never.json").exists()
+
+
+def test_an_edited_curve_regrades(grading_scene):
+    """Done when: an edited curve re-grades; what the edit did not change is reused."""
+    from seamfit import cache as disk
+    s = grading_scene
+    cache, solve = addon().cache.CACHE, addon().solve
+    assert bpy.ops.seamfit.adjust() == {"FINISHED"}
+    first = solve.last_result("adjust")
+    entries = {p for p, _, _ in disk.cache_entries()}
+    body_hits = cache.hits["body"]
+    # Half a centimetre sideways on a handle of a quadratic edge (a curve of the hip line).
+    pattern = _read(PENCIL)
+    pn = next(p for p in pattern.panels if any(e.kind == "quadratic" for e in p.edges))
+    quad = next(e for e in pn.edges if e.kind == "quadratic")
+    handle = _point_of(addon().scene_io.panel_objects(s.pattern)[pn.name], quad.id)
+    handle.handle_right = (handle.handle_right[0] + 0.005, handle.handle_right[1], 0.0)
+    assert bpy.ops.seamfit.adjust() == {"FINISHED"}
+    second = solve.last_result("adjust")
+    from seamfit.pattern.sewpat import pattern_from_dict
+    import json
+    base = pattern_from_dict(json.loads(second.base_pattern_json))
+    assert next(e for e in base.panel(pn.name).edges if e.id == quad.id).kind == "cubic"
+    assert second.pattern_json != first.pattern_json
+    assert cache.misses["grade"] == 2
+    # One result, replaced; the bodies and their distance fields were reused, only the base
+    # garment was draped again (it is keyed by the pattern).
+    graded = [c for c in bpy.data.collections if c.seamfit.role == "graded"]
+    assert len(graded) == 1
+    assert cache.hits["body"] > body_hits
+    new = {p for p, _, _ in disk.cache_entries()} - entries
+    assert new and all(p.parent.name == "drape" for p in new)
+    assert second.report["base_drape"]["cached"] is False

@@ -83,8 +83,8 @@ def arc_through(p0, p1, samples):
     return seamfit_module("pattern.edit").arc_through(p0, p1, samples)
 
 
-def cubic_through(p0, p1, samples):
-    return seamfit_module("pattern.edit").cubic_through(p0, p1, samples)
+def cubic_through(p0, p1, samples, t=None):
+    return seamfit_module("pattern.edit").cubic_through(p0, p1, samples, t)
 
 
 def check_edited(pattern, where: str) -> list[str]:

@@ -170,7 +170,9 @@ def _edge_from(e, cubic, p0, p1, straight: bool, moved, seg, end, where: str) ->
         arc, dev = compute.arc_through(p0, p1, samples)
         if dev <= ARC_TOL_CM:
             return {**base, "kind": "arc", "arc": arc}
-        ctrl, dev = compute.cubic_through(p0, p1, samples)
+        # The segments' own parameters, run end to end, start the fit.
+        params = (np.concatenate([i + t for i in range(len(cubic))]) / len(cubic))[1:]
+        ctrl, dev = compute.cubic_through(p0, p1, samples, params)
         if dev > ARC_TOL_CM:
             raise compute.AddonError(f"{where}: its {len(cubic)} segments no longer make one arc or one curve "
                                      f"({dev:.2f} cm off); move its end points or fewer of its handles")

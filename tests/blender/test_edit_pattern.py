@@ -141,6 +141,28 @@ def test_moved_arc_ends_keep_it_an_arc(scene):
     e = next(x for x in addon().scene_io.pattern_from_collection(coll).panel(pn.name).edges if x.id == arc.id)
     assert e.kind == "arc"
     assert np.allclose(e.p0, np.array(arc.p0) + [1.0, 0.0], atol=1e-4) and e.p1 == arc.p1
+    assert e.arc["radius"] != arc.arc["radius"]
+
+
+def test_an_arc_bent_inside_follows_the_drawn_curve(scene):
+    from seamfit.pattern import curves
+    coll, objs = _imported(CIRCLE)
+    pn = next(p for p in _read(CIRCLE).panels if any(e.kind == "arc" for e in p.edges))
+    arc = next(e for e in pn.edges if e.kind == "arc")
+    owner = list(objs[pn.name]["seamfit_segments"])
+    inner = owner.index(arc.id) + 1                    # the point between its two quarter turns
+    assert owner[inner] == arc.id
+    point = objs[pn.name].data.splines[0].bezier_points[inner]
+    centre = 0.01 * np.array(arc.arc["center"])
+    out = (np.array(point.co[:2]) - centre) / np.linalg.norm(np.array(point.co[:2]) - centre)
+    for attr in ("co", "handle_left", "handle_right"):  # 1 cm outwards, with its handles
+        v = np.array(getattr(point, attr)[:2]) + 0.01 * out
+        setattr(point, attr, (*v, 0.0))
+    back = addon().scene_io.pattern_from_collection(coll).panel(pn.name)
+    e = next(x for x in back.edges if x.id == arc.id)
+    assert e.kind in ("arc", "cubic")
+    assert curves.distance_to_curve(e, [100.0 * np.array(point.co[:2])])[0] < 0.05
+    assert curves.length(e) > curves.length(arc) + 0.5
 
 
 def test_self_intersecting_edit_is_one_line_naming_the_panel(scene, tmp_out):

@@ -58,7 +58,7 @@ def test_user_scene_props_defaults(scene):
 
 def test_operators_that_change_the_scene_are_undoable(installed):
     for cls in ("SEAMFIT_OT_import_pattern", "SEAMFIT_OT_build_mesh", "SEAMFIT_OT_drape", "SEAMFIT_OT_adjust",
-                "SEAMFIT_OT_check_bodies"):
+                "SEAMFIT_OT_check_bodies", "SEAMFIT_OT_apply_edits"):
         assert "UNDO" in getattr(bpy.types, cls).bl_options, cls
     # Export writes files only; drape and adjust have no redo panel (it would recompute).
     assert "UNDO" not in bpy.types.SEAMFIT_OT_export_pattern.bl_options

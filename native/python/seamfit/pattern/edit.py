@@ -18,6 +18,8 @@ from .refit import side_length_cm
 # sewpat-1 keeps outline samples at most 1 cm apart along every edge.
 SAMPLE_SPACING_CM = 1.0
 _LENGTH_DIGITS = 4              # lengths stored like the drafting conversions: 1e-4 cm
+# Rounds of least squares and reparametrization when fitting a cubic to a drawn curve.
+_N_REPARAM = 20
 
 
 def edges_in_order(panel: Panel, where: str) -> list[Edge]:
@@ -119,16 +121,29 @@ def arc_through(p0, p1, samples: np.ndarray) -> tuple[dict, float]:
             "angle1_rad": float(ang[-1])}, dev
 
 
-def cubic_through(p0, p1, samples: np.ndarray) -> tuple[list, float]:
-    """The cubic Bezier from ``p0`` to ``p1`` that best fits ``samples`` (in order, by chord
-    length): (its two control points, max distance in cm of the samples from it)."""
+def cubic_through(p0, p1, samples: np.ndarray, t: np.ndarray | None = None) -> tuple[list, float]:
+    """The cubic Bezier from ``p0`` to ``p1`` that best fits ``samples`` (points along the
+    curve, in order; ``t`` their parameters if known, else by chord length to start):
+    (its two control points, max distance in cm of the samples from it). Least squares for
+    the control points, alternating with Newton steps to each sample's nearest parameter."""
     p0, p1, q = np.asarray(p0, float), np.asarray(p1, float), np.asarray(samples, float)
-    pts = np.concatenate([[p0], q, [p1]])
-    d = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
-    t = (d / max(float(d[-1]), 1e-300))[1:-1]
-    b1, b2 = 3 * (1 - t) ** 2 * t, 3 * (1 - t) * t ** 2
-    rhs = q - np.outer((1 - t) ** 3, p0) - np.outer(t ** 3, p1)
-    ctrl = np.linalg.lstsq(np.stack([b1, b2], axis=1), rhs, rcond=None)[0]
-    edge = Edge(id=-1, start=0, end=1, kind="cubic", p0=tuple(p0), p1=tuple(p1), ctrl=[tuple(c) for c in ctrl])
+    if t is None:
+        pts = np.concatenate([[p0], q, [p1]])
+        d = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+        t = (d / max(float(d[-1]), 1e-300))[1:-1]
+    t = np.asarray(t, float).copy()
+    for _ in range(_N_REPARAM):
+        b1, b2 = 3 * (1 - t) ** 2 * t, 3 * (1 - t) * t ** 2
+        rhs = q - np.outer((1 - t) ** 3, p0) - np.outer(t ** 3, p1)
+        c1, c2 = np.linalg.lstsq(np.stack([b1, b2], axis=1), rhs, rcond=None)[0]
+        for _ in range(2):
+            tt = t[:, None]
+            pos = (1 - tt) ** 3 * p0 + 3 * (1 - tt) ** 2 * tt * c1 + 3 * (1 - tt) * tt ** 2 * c2 + tt ** 3 * p1
+            d1 = 3 * (1 - tt) ** 2 * (c1 - p0) + 6 * (1 - tt) * tt * (c2 - c1) + 3 * tt ** 2 * (p1 - c2)
+            d2 = 6 * (1 - tt) * (c2 - 2 * c1 + p0) + 6 * tt * (p1 - 2 * c2 + c1)
+            num = np.einsum("ij,ij->i", pos - q, d1)
+            den = np.einsum("ij,ij->i", d1, d1) + np.einsum("ij,ij->i", pos - q, d2)
+            t = np.clip(t - np.where(den > 1e-12, num / np.maximum(den, 1e-12), 0.0), 0.0, 1.0)
+    edge = Edge(id=-1, start=0, end=1, kind="cubic", p0=tuple(p0), p1=tuple(p1), ctrl=[tuple(c1), tuple(c2)])
     dev = float(curves.distance_to_curve(edge, q).max()) if len(q) else 0.0
-    return [tuple(map(float, c)) for c in ctrl], dev
+    return [tuple(map(float, c)) for c in (c1, c2)], dev

@@ -192,13 +192,13 @@ def panel_objects(coll) -> dict[str, bpy.types.Object]:
     return {o[PANEL_KEY]: o for o in coll.objects if PANEL_KEY in o}
 
 
-def pattern_from_collection(coll, validate: bool = True):
+def pattern_from_collection(coll):
     """The pattern as the scene shows it now: the stored pattern with each panel's curves
     (points and handles) and placement read back from its object, so edits reach export,
     drape and adjust. Edited edges are sampled again and the stitches stay on them; an
     edited pattern is validated as a file is (one line naming the panel or stitch)."""
     pattern, edited = _read_collection(coll)
-    if edited and validate:
+    if edited:
         compute.check_edited(pattern, f"pattern {coll.name!r}")
     return pattern
 
@@ -239,8 +239,8 @@ def _read_collection(coll):
 
 
 def _poly_outline(obj, pn, scale) -> np.ndarray:
-    """The outline of a panel drawn as a poly curve (scenes saved by seamfit 0.1.0 before its
-    panels were Bezier curves): one curve point per outline point."""
+    """The outline of a panel drawn as a poly curve (scenes saved before panels were Bezier
+    curves): one curve point per outline point."""
     pts = obj.data.splines[0].points
     if len(pts) != pn.n_vertices:
         raise compute.AddonError(

@@ -5,7 +5,7 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import BODICE, PENCIL, SAMPLES, addon, file_digest, scene_fingerprint
+from helpers import BODICE, PENCIL, SAMPLES, addon, file_digest, scene_fingerprint, undo, undo_push
 
 CIRCLE = SAMPLES / "patterns" / "gc_circle_skirt" / "size06" / "pattern.json"
 
@@ -127,6 +127,21 @@ def test_moved_point_and_handle_go_back_into_the_pattern(scene, tmp_out):
     assert bpy.ops.seamfit.export_pattern(filepath=str(out), format="SEWPAT") == {"FINISHED"}
     assert _pattern_dict(_read(out)) == _pattern_dict(edited)
     assert file_digest(PENCIL) == digest
+
+
+def test_undo_takes_the_applied_edits_back(scene):
+    coll, objs = _imported(PENCIL)
+    name, stored = coll.name, coll["seamfit_pattern"]
+    pn = _read(PENCIL).panels[0]
+    point = objs[pn.name].data.splines[0].bezier_points[0]
+    point.co = (point.co[0] + 0.01, point.co[1], 0.0)
+    undo_push("moved a point")
+    edited = scene_fingerprint()
+    assert bpy.ops.seamfit.apply_edits() == {"FINISHED"}
+    assert coll["seamfit_pattern"] != stored
+    undo_push("Apply Curve Edits")
+    undo()
+    assert bpy.data.collections[name]["seamfit_pattern"] == stored and scene_fingerprint() == edited
 
 
 def test_moved_arc_ends_keep_it_an_arc(scene):

@@ -178,3 +178,44 @@ def test_the_height_map_goes_on_beyond_the_soles_with_its_end_slope():
     z = np.array([-0.02, 0.4, 1.7])
     out = map_height(z, zb, zt)
     assert np.allclose(out, [-0.02 * 0.95, 0.38, 1.6 + 0.1 * 0.84 / 0.8])
+
+
+def _ring_around(points_xy: np.ndarray, out_m: float, n: int = 48) -> np.ndarray:
+    """Points on the convex hull of ``points_xy`` pushed out by ``out_m`` (cloth around it)."""
+    from scipy.spatial import ConvexHull
+    h = points_xy[ConvexHull(points_xy).vertices]
+    c = h.mean(axis=0)
+    ang = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    rays = np.column_stack([np.cos(ang), np.sin(ang)])
+    # the hull's extent along each ray, plus the offset
+    r = np.array([np.max((h - c) @ d) for d in rays]) + out_m
+    return c + rays * r[:, None]
+
+
+def test_a_top_s_girth_under_the_arms_is_the_torso_s_not_the_hull_around_its_sleeves():
+    from seamfit.body import load_body
+    from seamfit.body.measure import _Slicer, body_measurements
+    from seamfit.opt.level_scale import _enclosed_growth, _hull, _hull_perimeter
+    body = load_body(SAMPLES / "bodies/women_size06.obj")
+    lv = body_measurements(body)["levels_z_m"]
+    z = lv["armpit"] - 0.03                       # arms are loops of their own here
+    s = _Slicer(body)
+    _, _, _, pts = s.cut(z)
+    ids = s.torso_ids(z)
+    arm = np.setdiff1d(np.arange(len(pts)), ids)
+    assert len(ids) >= 3 and len(arm) >= 3
+    torso_cloth = _ring_around(pts[ids], 0.01)
+    left = pts[arm][pts[arm][:, 0] > 0]
+    right = pts[arm][pts[arm][:, 0] < 0]
+    sleeves = np.vstack([_ring_around(left, 0.01), _ring_around(right, 0.01)])
+    garment = np.vstack([torso_cloth, sleeves])
+    g, h0, h1 = _enclosed_growth(s, body.vertices, z, garment)
+    torso_g = _hull_perimeter(_hull(torso_cloth))
+    around_all = _hull_perimeter(_hull(garment))
+    assert g == pytest.approx(torso_g, rel=1e-9)
+    assert around_all > 1.3 * g                   # the hull around the sleeves is far longer
+    assert h0 == pytest.approx(s.girth(z), rel=1e-6)   # the torso's own tape girth
+    assert h1 == pytest.approx(h0, rel=1e-12)     # same body: no growth
+    # A garment without sleeves at that level keeps its whole section.
+    g2, h02, _ = _enclosed_growth(s, body.vertices, z, torso_cloth)
+    assert g2 == pytest.approx(torso_g, rel=1e-9) and h02 == pytest.approx(h0, rel=1e-9)

@@ -24,6 +24,11 @@ formats, by the extension of IN and OUT:
           OUT ends in .astm.dxf or with --dxf-flavor astm (also for .aama.dxf names).
   .svg    write: a true-scale drawing (1 unit = 1 cm)
 
+multi-size DXF (pieces of several sizes, each with its Size: text, as grade-run's nest.dxf):
+  --size NAME converts that size alone. Without it the .svg output nests every size (the
+  sample size in black) and the .dxf output keeps every size in ASTM's multi-size form;
+  a .json output (one pattern) needs --size, and the error lists the sizes.
+
 DXF has no stitches and no 3D placement. They are kept in a seams sidecar beside the
 DXF, <name>.seams.json (for <name>.dxf, <name>.aama.dxf and <name>.astm.dxf):
   * reading a DXF uses --seams FILE, else the sidecar beside it if there is one;
@@ -53,6 +58,8 @@ def register(subparsers) -> None:
                    help="units of a DXF input, overriding its header")
     p.add_argument("--dxf-out-units", choices=("mm", "in"), default="mm",
                    help="units of a DXF output (default mm)")
+    p.add_argument("--size", metavar="NAME", default=None,
+                   help="of a multi-size DXF input, convert this size (its pieces' Size: text)")
     p.add_argument("--seams", metavar="SEAMS.json", type=Path, default=None,
                    help="seams sidecar of a DXF input (default: <name>.seams.json beside it, if any)")
     p.add_argument("--propose-seams", metavar="SEAMS.json", type=Path, default=None,
@@ -98,7 +105,15 @@ def run(args) -> int:
     for out in outputs + ([args.propose_seams] if args.propose_seams else []):
         check_not_an_input(out, inputs)
     # read (and check) before anything is written
-    pattern, fmt = read_pattern_file(args.input, dxf_units=args.dxf_units, seams=args.seams)
+    if args.input.suffix.lower() == ".dxf":
+        from ..pattern.dxf_sizes import one_size
+        from ..pattern.io import read_dxf_size_file
+        sizes = read_dxf_size_file(args.input, dxf_units=args.dxf_units, seams=args.seams, size=args.size)
+        if args.size is None and len(sizes.patterns) > 1 and kind in ("svg", "dxf"):
+            return _all_sizes(sizes, args, kind, flavor, inputs)
+        pattern, fmt = one_size(sizes, args.size), f"dxf-{sizes.flavor}"
+    else:
+        pattern, fmt = read_pattern_file(args.input, dxf_units=args.dxf_units, seams=args.seams, size=args.size)
     notes = (pattern.extra.get("source") or {}).get("notes", []) if fmt.startswith("dxf") else []
     if not args.quiet:
         for m in notes:
@@ -152,3 +167,36 @@ def _write(pattern, args, kind: str, flavor: str | None, inputs) -> list[str]:
     if sidecar is not None:
         shown.append(f"{sidecar} ({len(pattern.stitches)} stitches)")
     return shown
+
+
+def _all_sizes(sizes, args, kind: str, flavor: str, inputs) -> int:
+    """Every size of a multi-size DXF: nested in one SVG, or again in ASTM's multi-size form."""
+    from ..pattern.dxf import flavor_from_path
+    labels = sizes.labels
+    base = labels.index(sizes.sample_size) if sizes.sample_size else 0
+    patterns = [sizes.patterns[lab] for lab in labels]
+    if args.propose_seams is not None:
+        raise SeamfitError(f"{args.input}: --propose-seams works on one size of a multi-size DXF; "
+                           f"choose one with --size NAME ({', '.join(labels)})")
+    if kind == "dxf" and (flavor == "aama" and (args.dxf_flavor or flavor_from_path(args.out))
+                          or args.seam_allowance is not None or args.dxf_out_units != "mm"):
+        raise SeamfitError(f"{args.input}: every size goes out in DXF-ASTM's multi-size form, in mm, with the "
+                           "seam allowances read; for --dxf-flavor aama, --seam-allowance or inch output choose "
+                           f"one size with --size NAME ({', '.join(labels)})")
+    out: Path = args.out
+    with OutputSet(out.parent, inputs=inputs, force=args.force, files=[out.name]) as tmp:
+        if kind == "svg":
+            from ..pattern import write_svg
+            order = [base] + [k for k in range(len(labels)) if k != base]
+            write_svg(tmp / out.name, [patterns[k] for k in order], labels=[labels[k] for k in order],
+                      title=Path(args.input).name)
+        else:
+            from ..pattern.dxf_sizes import write_size_run_dxf
+            write_size_run_dxf(tmp / out.name, patterns, labels, base)
+    if not args.quiet:
+        for m in sizes.notes:
+            print(f"seamfit convert: note: {m}", file=sys.stderr)
+        print(f"{args.input}: dxf-{sizes.flavor}, {len(labels)} sizes ({', '.join(labels)}), "
+              f"{len(patterns[base].panels)} panels each")
+        print(f"wrote {out}" + (" (the sizes nested)" if kind == "svg" else " (DXF-ASTM, every size)"))
+    return 0

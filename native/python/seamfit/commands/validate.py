@@ -23,7 +23,11 @@ patterns (.json): sewpat-1 files and GarmentCode *_specification.json files; the
 DXF-AAMA / DXF-ASTM patterns (.dxf): read as seamfit convert reads them (docs/formats.md,
   "DXF"), with the stitches and placements of the seams sidecar beside the file
   (<name>.seams.json) or --seams; then the same checks. The reader's notes (a broken cut
-  line dropped, a far piece moved) are printed as "note:" lines.
+  line dropped, a far piece moved) are printed as "note:" lines. A multi-size DXF (pieces
+  of several sizes, each with its Size: text) is checked size by size, or one with --size.
+notches across a seam: where both sides of a stitch carry notches, they must sit at the
+  same arc length from the seam's start (read as the stitch joins the sides) within
+  NOTCH_MATCH_CM; a notch without its partner is a warning naming the stitch and notch.
 bodies (.obj, .ply): loaded and checked by seamfit.body.
 
 exit status: 0 valid (warnings allowed unless --strict), 1 validation errors found
@@ -42,6 +46,8 @@ def register(subparsers) -> None:
     p.add_argument("--dxf-units", choices=("mm", "cm", "in", "m"), default=None,
                    help="units of a DXF pattern, overriding its header (default: from $INSUNITS or "
                         "its Units text)")
+    p.add_argument("--size", metavar="NAME", default=None,
+                   help="of a multi-size DXF, check this size only (default: every size in turn)")
     p.add_argument("--seams", metavar="SEAMS.json", type=Path, default=None,
                    help="a DXF pattern's seams sidecar (default: <name>.seams.json beside it, if any)")
     p.add_argument("--seam-tolerance", type=float, default=SEAM_TOLERANCE_CM, metavar="CM",
@@ -77,17 +83,35 @@ def run(args) -> int:
 
 def _run_pattern(args) -> int:
     from ..output_set import check_not_an_input
-    from ..pattern import save_pattern, validate_pattern, write_svg
     from ..pattern.io import read_pattern_file
-    from ..pattern.validate import fix_pattern
 
     if not (args.seam_tolerance >= 0 and math.isfinite(args.seam_tolerance) and 0 <= args.seam_tolerance_rel < 1):
         raise SeamfitError("--seam-tolerance must be a finite number >= 0 and --seam-tolerance-rel in [0, 1)")
     for out in (args.fix, args.svg):   # neither may replace the file being checked
         if out is not None:
             check_not_an_input(out, [args.file])
-    pattern, fmt = read_pattern_file(args.file, dxf_units=getattr(args, "dxf_units", None),
-                                     seams=getattr(args, "seams", None))
+    size = getattr(args, "size", None)
+    dxf_units, seams = getattr(args, "dxf_units", None), getattr(args, "seams", None)
+    if Path(args.file).suffix.lower() == ".dxf" and size is None:
+        from ..pattern.io import read_dxf_size_file
+        sizes = read_dxf_size_file(args.file, dxf_units=dxf_units, seams=seams)
+        if len(sizes.patterns) > 1:
+            if args.fix is not None or args.svg is not None:
+                raise SeamfitError(f"{args.file}: --fix and --svg take one size of a multi-size DXF; choose one "
+                                   f"with --size NAME ({', '.join(sizes.labels)})")
+            codes = [_check_one(pattern, f"dxf-{sizes.flavor}", args, label)
+                     for label, pattern in sizes.patterns.items()]
+            return max(codes)
+        pattern, fmt = next(iter(sizes.patterns.values())), f"dxf-{sizes.flavor}"
+    else:
+        pattern, fmt = read_pattern_file(args.file, dxf_units=dxf_units, seams=seams, size=size)
+    return _check_one(pattern, fmt, args, size)
+
+
+def _check_one(pattern, fmt: str, args, size: str | None) -> int:
+    from ..pattern import save_pattern, validate_pattern, write_svg
+    from ..pattern.validate import fix_pattern
+
     report = validate_pattern(pattern, seam_tolerance_cm=args.seam_tolerance,
                               seam_tolerance_rel=args.seam_tolerance_rel)
     out = sys.stdout
@@ -96,7 +120,8 @@ def _run_pattern(args) -> int:
         ident = ", ".join(f"{k} {v}" for k, v in (("garment", pattern.garment_id), ("body", pattern.body_id)) if v)
         kind = {"garmentcode": "GarmentCode specification", "dxf-aama": "DXF-AAMA",
                 "dxf-astm": "DXF-ASTM"}.get(fmt, fmt)
-        print(f"{args.file}: {kind}" + (f" ({ident})" if ident else ""), file=out)
+        print(f"{args.file}: {kind}" + (f", size {size}" if size is not None else "")
+              + (f" ({ident})" if ident else ""), file=out)
         print(f"  panels: {len(pattern.panels)}, vertices: {n_vert}, stitches: {len(pattern.stitches)} "
               f"({sum(s.gathered for s in pattern.stitches)} gathered), warnings: {len(report.warnings)}, "
               f"errors: {len(report.errors)}", file=out)

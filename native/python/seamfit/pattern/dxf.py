@@ -99,6 +99,27 @@ def read_dxf(path: str | Path, *, units: str | None = None) -> Pattern:
 
 
 def read_dxf_file(path: str | Path, *, units: str | None = None) -> DxfReadResult:
+    """Every piece of the file in one pattern, repeated names made unique (`` 2``, `` 3``, ...)."""
+    res = read_dxf_pieces(path, units=units)
+    unique_names(res.pattern.panels)
+    return res
+
+
+def unique_names(panels: list[Panel]) -> None:
+    """Rename repeats of a panel name in place: the second ``Detail`` becomes ``Detail 2``."""
+    taken: set[str] = set()
+    for panel in panels:
+        unique, j = panel.name, 2
+        while unique in taken:
+            unique = f"{panel.name} {j}"
+            j += 1
+        taken.add(unique)
+        panel.name = unique
+
+
+def read_dxf_pieces(path: str | Path, *, units: str | None = None) -> DxfReadResult:
+    """The file's pieces as panels named as the file names them (names may repeat: a
+    multi-size file holds each piece once per size; seamfit.pattern.dxf_sizes groups them)."""
     path = Path(path)
     if units is not None and units not in UNITS_CM:
         raise PatternError(f"{path}: unknown DXF units {units!r} (expected one of {', '.join(UNITS_CM)})")
@@ -108,10 +129,7 @@ def read_dxf_file(path: str | Path, *, units: str | None = None) -> DxfReadResul
     unit, unit_from = _units(doc, header_texts, units, path)
     scale = UNITS_CM[unit]
     notes: list[str] = []
-    panels = []
-    taken: set[str] = set()
-    for k, piece in enumerate(pieces):
-        panels.append(_panel(piece, k, scale, unit, unit_from, path, taken, notes))
+    panels = [_panel(piece, k, scale, unit, unit_from, path, notes) for k, piece in enumerate(pieces)]
     if not panels:
         raise PatternError(f"{path}: no pattern pieces (no block with a boundary on layer 1)")
     info = {key: val for key, val in header_texts.items() if key != "units"}
@@ -599,7 +617,7 @@ def _piece_texts(texts: list[tuple[str, tuple[float, float], float, str]], block
 
 
 def _panel(piece: _Piece, k: int, scale: float, unit: str, unit_from: str, path: Path,
-           taken: set[str], notes: list[str]) -> Panel:
+           notes: list[str]) -> Panel:
     where = f"{path}: piece {k + 1} (block {piece.block!r})"
     by_layer: dict[str, list] = {}
     texts = []
@@ -635,7 +653,7 @@ def _panel(piece: _Piece, k: int, scale: float, unit: str, unit_from: str, path:
         by_layer.setdefault(layer, []).extend(_entity_points(e, piece.matrix, scale))
     info = _piece_texts(texts, piece.block)
     name = info.get("name") or piece.block or f"piece {k + 1}"
-    where = f"{path}: piece {name!r}"
+    where = f"{path}: piece {name!r}" + (f" (size {info['size']})" if info.get("size") else "")
     boundary = [(p, c) for p, c in _chain(by_layer.get("1", [])) if len(p) >= 3]
     if not boundary:
         raise PatternError(f"{where}: no boundary (a closed polyline on layer 1)")
@@ -785,14 +803,8 @@ def _panel(piece: _Piece, k: int, scale: float, unit: str, unit_from: str, path:
         _measure_allowance(outline, edges, cut_line)
     extra["dxf"] = dxf
 
-    unique = name
-    j = 2
-    while unique in taken:
-        unique = f"{name} {j}"
-        j += 1
-    taken.add(unique)
     placement = Placement(kind="hint", rotation=np.eye(3), translation_m=np.zeros(3))
-    return Panel(name=unique, outline_cm=outline, orientation="ccw" if _area(outline) > 0 else "cw",
+    return Panel(name=name, outline_cm=outline, orientation="ccw" if _area(outline) > 0 else "cw",
                  nodes=nodes, corners=corners, landmarks=landmarks, edges=edges, placement=placement,
                  extra=extra)
 

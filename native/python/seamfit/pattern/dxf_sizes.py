@@ -1,6 +1,6 @@
 """A graded size run in DXF-ASTM: every size in one file, and the base with grade rules.
 
-Two forms (docs/formats.md, "Size runs in DXF"):
+Two forms are written (docs/formats.md, "Size runs"):
 
 * ``write_size_run_dxf``: the multi-size form. One block per piece and size, each with its
   ``Size:`` text, all sizes of a piece inserted on one spot, aligned at the piece's
@@ -10,10 +10,14 @@ Two forms (docs/formats.md, "Size runs in DXF"):
   at each grade point (every edge end, corner and landmark), and the RUL table beside it:
   per rule, each size's move (x, y) of that point from the base size, in the drawing's
   units, in the same top-centre frame. Points that move alike share a rule.
+
+Reading (``read_dxf_sizes``): the pieces of any DXF grouped by their ``Size:`` text, one
+pattern per size; ``one_size`` picks the one a command works on.
 """
 from __future__ import annotations
 
 import copy
+import dataclasses
 import io
 from pathlib import Path
 from typing import Sequence
@@ -22,7 +26,7 @@ import numpy as np
 
 from ..errors import PatternError
 from ..fileio import atomic_write_bytes, atomic_write_text
-from .dxf import UNITS_CM, build_dxf
+from .dxf import UNITS_CM, build_dxf, read_dxf_pieces, unique_names
 from .model import Pattern
 
 BASE_COLOR = 7                       # AutoCAD colour index: black on a white sheet
@@ -74,8 +78,9 @@ def write_size_run_dxf(path, patterns: Sequence[Pattern], labels: Sequence[str],
     header["sample_size"] = labels[base_index]
     merged.extra["dxf"] = {**(merged.extra.get("dxf") or {}), "header": header}
     colors = []
-    order = [base_index] + [k for k in range(len(patterns)) if k != base_index]
-    for j, k in enumerate(order):
+    others = [k for k in range(len(patterns)) if k != base_index]
+    # sizes in the run's order, so that a reader lists them smallest to largest
+    for k in range(len(patterns)):
         for panel in patterns[k].panels:
             p = copy.deepcopy(panel)
             o = np.asarray(p.outline_cm, dtype=float)
@@ -86,7 +91,7 @@ def write_size_run_dxf(path, patterns: Sequence[Pattern], labels: Sequence[str],
             p.extra["dxf"] = dxf
             p.extra["size"] = labels[k]
             merged.panels.append(p)
-            colors.append(BASE_COLOR if k == base_index else SIZE_COLORS[(j - 1) % len(SIZE_COLORS)])
+            colors.append(BASE_COLOR if k == base_index else SIZE_COLORS[others.index(k) % len(SIZE_COLORS)])
     doc = build_dxf(merged, flavor="astm", units=units, name=path.name)
     inserts = list(doc.modelspace().query("INSERT"))
     for ref, color in zip(inserts, colors):
@@ -204,3 +209,80 @@ def write_graded_dxf(path, rul_path, patterns: Sequence[Pattern], labels: Sequen
     _write(doc, path)
     atomic_write_text(rul_path, format_rul(rules, labels, base_index, name=path.stem, units=units))
     return path, rul_path
+
+
+# ============================================================================ reading
+
+@dataclasses.dataclass
+class DxfSizes:
+    """A DXF's pieces grouped by size: ``patterns`` maps each size, in file order, to its
+    pattern (one entry, keyed None, when no piece names a size); ``sample_size`` is the
+    header's ``Sample Size:`` when it names one of them."""
+    path: Path
+    patterns: dict[str | None, Pattern]
+    sample_size: str | None
+    flavor: str
+    units: str
+    notes: list[str]
+
+    @property
+    def labels(self) -> list[str]:
+        return [lab for lab in self.patterns if lab is not None]
+
+
+def read_dxf_sizes(path, *, units: str | None = None) -> DxfSizes:
+    """The DXF at ``path`` as one pattern per size (each piece's ``Size:`` text), piece names
+    unique within each size. A file whose pieces name two sizes or more and where some
+    piece names none is a PatternError naming that piece."""
+    path = Path(path)
+    res = read_dxf_pieces(path, units=units)
+    whole = res.pattern
+    labels: list[str] = []
+    for panel in whole.panels:
+        lab = panel.extra.get("size")
+        if lab is not None and str(lab) not in labels:
+            labels.append(str(lab))
+    groups: dict[str | None, list] = {}
+    if len(labels) < 2:
+        groups[labels[0] if labels else None] = whole.panels
+    else:
+        for panel in whole.panels:
+            if panel.extra.get("size") is None:
+                raise PatternError(f"{path}: piece {panel.name!r} has no Size text, but the file's other pieces "
+                                   f"name {len(labels)} sizes ({', '.join(labels)}): each piece of a multi-size "
+                                   "file needs its size")
+            groups.setdefault(str(panel.extra["size"]), []).append(panel)
+    patterns = {}
+    for lab, panels in groups.items():
+        unique_names(panels)
+        pat = dataclasses.replace(whole, panels=list(panels), stitches=[], extra=copy.deepcopy(whole.extra))
+        if lab is not None:
+            pat.extra["size"] = lab
+        patterns[lab] = pat
+    sample = ((whole.extra.get("dxf") or {}).get("header") or {}).get("sample_size")
+    return DxfSizes(path=path, patterns=patterns, sample_size=sample if sample in patterns else None,
+                    flavor=res.flavor, units=res.units, notes=res.notes)
+
+
+def size_notes(sizes: DxfSizes, label: str | None) -> list[str]:
+    """The reader's notes on one size: those naming its pieces (``(size NAME)``), and those
+    on the file as a whole."""
+    if len(sizes.patterns) < 2:
+        return list(sizes.notes)
+    return [m for m in sizes.notes if f"(size {label})" in m or "(size " not in m]
+
+
+def one_size(sizes: DxfSizes, size: str | None) -> Pattern:
+    """The pattern of ``size``; without one, the file's only pattern. PatternError listing
+    the sizes when the file holds several and none is chosen, or not the one chosen."""
+    listed = ", ".join(sizes.labels)
+    if size is None:
+        if len(sizes.patterns) > 1:
+            sample = f"; sample size {sizes.sample_size}" if sizes.sample_size else ""
+            raise PatternError(f"{sizes.path}: a multi-size DXF holding {len(sizes.patterns)} sizes ({listed}"
+                               f"{sample}); choose one with --size NAME")
+        return next(iter(sizes.patterns.values()))
+    if size not in sizes.patterns:
+        held = f"holds sizes {listed}" if sizes.labels else "names no size (no piece has a Size text)"
+        raise PatternError(f"{sizes.path}: no size {size!r}; the file {held}")
+    return sizes.patterns[size]

@@ -33,17 +33,22 @@ def load_pattern(path: str | Path) -> Pattern:
 
 
 def read_pattern_file(path: str | Path, *, dxf_units: str | None = None,
-                      seams: str | Path | None = None) -> tuple[Pattern, str]:
+                      seams: str | Path | None = None, size: str | None = None) -> tuple[Pattern, str]:
     """:func:`load_pattern`, also returning the detected format ('sewpat-1', 'garmentcode',
     'dxf-aama' or 'dxf-astm').
 
     A ``.dxf`` file is read by seamfit.pattern.dxf (``dxf_units`` overrides the units it
     declares); its stitches and placements come from ``seams`` or, when that is not given,
     from the seams sidecar beside it (``<name>.seams.json``) if there is one. The reader's
-    notes (what it dropped or guessed) are in ``pattern.extra["source"]["notes"]``."""
+    notes (what it dropped or guessed) are in ``pattern.extra["source"]["notes"]``. A DXF
+    holding several sizes needs ``size`` (PatternError listing them otherwise)."""
     path = Path(path)
     if path.suffix.lower() == ".dxf":
-        return _read_dxf(path, dxf_units, seams)
+        from .dxf_sizes import one_size
+        sizes = read_dxf_size_file(path, dxf_units=dxf_units, seams=seams, size=size)
+        return one_size(sizes, size), f"dxf-{sizes.flavor}"
+    if size is not None:
+        raise PatternError(f"{path}: --size {size!r} applies to a multi-size DXF file, not to this one")
     if not path.exists():
         raise PatternError(f"{path}: no such file")
     if path.is_dir():
@@ -81,18 +86,25 @@ def read_pattern_file(path: str | Path, *, dxf_units: str | None = None,
     raise PatternError(f"{path}: JSON file is not a pattern; expected {READABLE}")
 
 
-def _read_dxf(path: Path, units: str | None, seams) -> tuple[Pattern, str]:
-    from .dxf import read_dxf_file
+def read_dxf_size_file(path: str | Path, *, dxf_units: str | None = None, seams: str | Path | None = None,
+                       size: str | None = None):
+    """A DXF as seamfit.pattern.dxf_sizes.DxfSizes (one pattern per size), the reader's
+    notes in each pattern's ``extra["source"]["notes"]`` and the seams sidecar (``seams``,
+    else the one beside the file) applied to each size, or only to ``size`` when given."""
+    from .dxf_sizes import read_dxf_sizes, size_notes
     from .seams import apply_sidecar, sidecar_path
-    res = read_dxf_file(path, units=units)
-    source = res.pattern.extra.setdefault("source", {})
-    if res.notes:
-        source["notes"] = list(res.notes)
+    path = Path(path)
+    sizes = read_dxf_sizes(path, units=dxf_units)
     side = Path(seams) if seams is not None else sidecar_path(path)
-    if seams is not None or side.exists():
-        apply_sidecar(res.pattern, side)
-        source["seams"] = side.name
-    return res.pattern, f"dxf-{res.flavor}"
+    for label, pattern in sizes.patterns.items():
+        source = pattern.extra.setdefault("source", {})
+        notes = size_notes(sizes, label)
+        if notes:
+            source["notes"] = notes
+        if (seams is not None or side.exists()) and (size is None or label == size):
+            apply_sidecar(pattern, side)
+            source["seams"] = side.name
+    return sizes
 
 
 def _same_file(a: Path, b: Path) -> bool:

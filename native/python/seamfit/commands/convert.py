@@ -126,6 +126,11 @@ def run(args) -> int:
                        files=[args.propose_seams.name]) as tmp:
             write_sidecar(tmp / args.propose_seams.name, sidecar_dict(pattern, proposals))
         written.append(f"{args.propose_seams} ({len(pattern.stitches)} stitches, {len(proposals)} proposed)")
+        if not args.quiet:
+            for j, prop in enumerate(proposals):
+                for w in prop.get("notch_warnings", []):
+                    print(f"seamfit convert: warning: proposed stitch {len(pattern.stitches) + j} "
+                          f"({prop['a']['panel']} / {prop['b']['panel']}): {w}", file=sys.stderr)
     if args.out is not None:
         written += _write(pattern, args, kind, flavor, inputs)
     if not args.quiet:

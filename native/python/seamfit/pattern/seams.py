@@ -37,13 +37,13 @@ import numpy as np
 from ..errors import PatternError
 from ..fileio import atomic_write_text
 from .model import Panel, Pattern, Placement, Stitch, StitchSide, range_indices
+from .notches import notch_misses
 
 FORMAT = "seamfit-seams-1"
 SNAP_CM = 0.05                   # a side's end point must be this close to an outline vertex
 MATCH_CM = 0.3                   # runs whose lengths differ by less than this (or ...)
 MATCH_REL = 0.01                 # ... this fraction of the longer one) are proposed
 MIN_RUN_CM = 2.0                 # shorter runs (notch slits, corner snips) are not seams
-NOTCH_MATCH_CM = 1.0             # notches of two sides line up within this distance
 CONGRUENT_REL = 0.005            # panels whose area and perimeter agree this closely are copies
 
 
@@ -108,25 +108,26 @@ def propose_stitches(pattern: Pattern) -> list[dict[str, Any]]:
                 continue
             score = diff / max(la, lb)
             why = [f"lengths {la:.2f} and {lb:.2f} cm"]
-            na, nb = ra[3], sorted(lb - s for s in rb[3])
-            if na or nb:
-                if len(na) == len(nb) and all(abs(s - t) <= NOTCH_MATCH_CM for s, t in zip(na, nb)):
-                    score -= 0.02 * len(na)
-                    why.append(f"{len(na)} notch(es) line up")
+            misses = []
+            if ra[3] or rb[3]:
+                misses = notch_misses(pa, (ra[0], ra[1]), pb, (rb[0], rb[1]))
+                if not misses:
+                    score -= 0.02 * len(ra[3])
+                    why.append(f"{len(ra[3])} notch(es) line up")
                 else:
                     score += 0.05
-                    why.append(f"notches differ ({len(na)} and {len(nb)})")
+                    why.append(f"notches differ ({len(ra[3])} and {len(rb[3])})")
             if pa is not pb and _congruent(pa, pb):
                 score += 0.1
                 why.append("the panels are copies of each other")
             elif pa is pb:                       # a sleeve's underarm, but mostly chance
                 score += 0.1
                 why.append("both on one panel")
-            cands.append((score, x, y, "; ".join(why)))
+            cands.append((score, x, y, "; ".join(why), [m.describe() for m in misses]))
     cands.sort(key=lambda c: (c[0], c[1], c[2]))
     used: set[int] = set()
     out = []
-    for score, x, y, why in cands:
+    for score, x, y, why, notch_warnings in cands:
         if x in used or y in used:
             continue
         used.update((x, y))
@@ -134,7 +135,8 @@ def propose_stitches(pattern: Pattern) -> list[dict[str, Any]]:
         out.append({"a": _side_dict(pa, ra[0], ra[1]), "b": _side_dict(pb, rb[0], rb[1]),
                     "orientation": "reversed", "gathered": False, "confirmed": False,
                     "length_a_cm": round(ra[2], 4), "length_b_cm": round(rb[2], 4),
-                    "score": round(score, 5), "why": why})
+                    "score": round(score, 5), "why": why,
+                    **({"notch_warnings": notch_warnings} if notch_warnings else {})})
     return out
 
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import ValidationError
 from .model import EDGE_KINDS, Panel, Pattern, StitchSide, range_indices
+from .notches import notch_misses
 
 # Non-gathered stitch sides may differ by max(SEAM_TOLERANCE_CM, SEAM_TOLERANCE_REL * longer
 # side). Drafted patterns agree to < 0.6 cm (designed ease such as a shoulder seam's ~0.3 cm,
@@ -338,6 +339,10 @@ def _check_stitches(pattern: Pattern, src: str, rep: ValidationReport, tol_cm: f
                     f"{sw}: side lengths differ by {abs(la - lb):.2f} cm (a: panel {s.a.panel!r} "
                     f"{list(s.a.range)} {la:.2f} cm, b: panel {s.b.panel!r} {list(s.b.range)} {lb:.2f} cm), "
                     f"more than {tol:.2f} cm, and the stitch is not marked gathered")
+        if len(ranges) == 2:
+            for miss in notch_misses(names[s.a.panel], s.a.range, names[s.b.panel], s.b.range,
+                                     orientation=s.orientation, gathered=bool(s.gathered)):
+                rep.warnings.append(f"{sw}: notches out of step: {miss.describe()}")
 
 
 def _check_units(pattern: Pattern, src: str, good: dict[str, Panel], rep: ValidationReport) -> None:

@@ -377,6 +377,7 @@ def test_convert_sewpat_to_dxf_and_back_keeps_stitches_and_placements(tmp_path, 
         np.testing.assert_allclose(b.outline_cm, a.outline_cm, atol=1e-9)
         np.testing.assert_allclose(b.placement.rotation, a.placement.rotation, atol=1e-12)
         np.testing.assert_allclose(b.placement.translation_m, a.placement.translation_m, atol=1e-12)
+        assert b.placement.side == a.placement.side and b.placement.extra == a.placement.extra
     assert [(s.a.panel, s.a.range, s.b.panel, s.b.range, s.gathered) for s in q.stitches] == \
            [(s.a.panel, s.a.range, s.b.panel, s.b.range, s.gathered) for s in p.stitches]
     assert q.garment_type == p.garment_type
@@ -479,3 +480,24 @@ def test_bad_sidecar_names_the_file_and_the_stitch(tmp_path, capsys):
     _one_line_error(capsys, src, "stitch 0 side b 'from'", "no outline vertex", at_fault=side)
     side.write_text("{")
     _one_line_error(capsys, src, "invalid JSON", at_fault=side)
+
+
+def test_placement_anchors_survive_the_sidecar(tmp_path, capsys):
+    # FreeSewing hint placements name the landmark the dressing anchors at the waist; DXF keeps
+    # no landmark names, so the sidecar gives its point too and reading puts the landmark back
+    src = ROOT / "sample_files/patterns/fs_bodice/size06/pattern.json"
+    dxf, back = tmp_path / "bodice.astm.dxf", tmp_path / "back.json"
+    assert _cli(capsys, "convert", src, "--out", dxf)[0] == 0
+    assert _cli(capsys, "convert", dxf, "--out", back)[0] == 0
+    p, q = load_pattern(src), load_pattern(back)
+    for a, b in zip(p.panels, q.panels):
+        assert b.placement.extra == a.placement.extra and b.placement.side == a.placement.side
+        mark = a.placement.extra["anchor_landmark"]
+        np.testing.assert_allclose(b.outline_cm[b.landmarks[mark]], a.outline_cm[a.landmarks[mark]], atol=1e-6)
+    side = json.loads((tmp_path / "bodice.seams.json").read_text())
+    first = next(iter(side["placements"]))
+    del side["placements"][first]["anchor_landmark_at_cm"]
+    write_sidecar(tmp_path / "bodice.seams.json", side)
+    code, _, err = _cli(capsys, "validate", dxf)
+    assert code == 2 and f"placement of {first!r}: anchor_landmark" in err and "is not a landmark" in err
+    assert len(err.strip().splitlines()) == 1

@@ -38,11 +38,13 @@ from ..errors import PatternError
 from ..fileio import atomic_write_text
 from .model import Panel, Pattern, Placement, Stitch, StitchSide, range_indices
 from .notches import notch_misses
+from .sewpat import _PLACEMENT_KEYS
 
 FORMAT = "seamfit-seams-1"
 SNAP_CM = 0.05                   # a side's end point must be this close to an outline vertex
 MATCH_CM = 0.3                   # runs whose lengths differ by less than this (or ...)
 MATCH_REL = 0.01                 # ... this fraction of the longer one) are proposed
+_AT = "_at_cm"                   # suffix of the point [u, v] of a placement's landmark
 MIN_RUN_CM = 2.0                 # shorter runs (notch slits, corner snips) are not seams
 CONGRUENT_REL = 0.005            # panels whose area and perimeter agree this closely are copies
 
@@ -175,9 +177,17 @@ def sidecar_dict(pattern: Pattern, proposals: list[dict] | None = None) -> dict[
         pl = p.placement
         if pl.kind == "hint" and np.allclose(pl.rotation, np.eye(3)) and not np.any(pl.translation_m):
             continue                             # the DXF reader's default: nothing to say
-        placements[p.name] = {"kind": pl.kind, "rotation_matrix": np.asarray(pl.rotation, float).tolist(),
-                              "translation_m": np.asarray(pl.translation_m, float).tolist(),
-                              **({"side": pl.side} if pl.side else {})}
+        # the placement's other keys too (the dressing's anchor_landmark, body_side, ...); a
+        # landmark named there also by its point, since DXF keeps no landmark names
+        entry = {"kind": pl.kind, "rotation_matrix": np.asarray(pl.rotation, float).tolist(),
+                 "translation_m": np.asarray(pl.translation_m, float).tolist(),
+                 **({"side": pl.side} if pl.side else {}),
+                 **{k: v for k, v in (pl.extra or {}).items() if k not in _PLACEMENT_KEYS}}
+        for key in [k for k in entry if k.endswith("_landmark")]:
+            v = p.landmarks.get(entry[key]) if isinstance(entry[key], str) else None
+            if isinstance(v, (int, np.integer)) and 0 <= v < len(p.outline_cm):
+                entry[key + _AT] = [round(float(c), 6) for c in p.outline_cm[v]]
+        placements[p.name] = entry
     if placements:
         d["placements"] = placements
     return d
@@ -256,8 +266,22 @@ def apply_sidecar(pattern: Pattern, path: str | Path) -> int:
             raise PatternError(f"{where}: needs rotation_matrix (3x3) and translation_m (3 numbers)") from None
         if not (np.all(np.isfinite(rot)) and np.all(np.isfinite(tr))):
             raise PatternError(f"{where}: non-finite numbers")
-        panels[name].placement = Placement(kind=str(pl.get("kind", "hint")), rotation=rot, translation_m=tr,
-                                           side=pl.get("side"))
+        panel = panels[name]
+        for key in [k for k in pl if k.endswith("_landmark")]:
+            mark = pl[key]
+            if not isinstance(mark, str):
+                raise PatternError(f"{where}: {key} must be a landmark name")
+            if mark in panel.landmarks:
+                continue
+            if key + _AT not in pl:
+                raise PatternError(f"{where}: {key} {mark!r} is not a landmark of the panel (landmarks: "
+                                   f"{', '.join(panel.landmarks) or 'none'}); name one, or give its point as "
+                                   f"{key + _AT} [u, v]")
+            panel.landmarks[mark] = _vertex(panel, pl[key + _AT], f"{where} {key + _AT}")
+        panel.placement = Placement(kind=str(pl.get("kind", "hint")), rotation=rot, translation_m=tr,
+                                    side=pl.get("side"),
+                                    extra={k: v for k, v in pl.items()
+                                           if k not in _PLACEMENT_KEYS and not k.endswith(_AT)})
     if d.get("garment_type"):
         pattern.garment_type = str(d["garment_type"])
     pattern.stitches = stitches

@@ -501,3 +501,26 @@ def test_placement_anchors_survive_the_sidecar(tmp_path, capsys):
     code, _, err = _cli(capsys, "validate", dxf)
     assert code == 2 and f"placement of {first!r}: anchor_landmark" in err and "is not a landmark" in err
     assert len(err.strip().splitlines()) == 1
+
+
+def test_grading_a_dxf_without_stitches_or_placements_stops_before_any_work(tmp_path, capsys):
+    src = DXF_DIR / "Keiko_skirt.astm.dxf"
+    dxf = tmp_path / "keiko.astm.dxf"
+    dxf.write_bytes(src.read_bytes())
+    bodies = DXF_DIR.parent / "bodies"
+    argv = ["grade", dxf, "--base-body", bodies / "women_size06.obj", "--target-body", bodies / "women_size10.obj",
+            "--out", tmp_path / "g", "-q"]
+    code, _, err = _cli(capsys, *argv)
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "no stitches (DXF has none): confirm them in the seams sidecar keiko.seams.json" in err
+    # stitches confirmed, but no placements yet
+    p = read_dxf_file(dxf).pattern
+    side = sidecar_dict(p, propose_stitches(p)[:1])
+    side["stitches"][0]["confirmed"] = True
+    write_sidecar(tmp_path / "keiko.seams.json", side)
+    code, _, err = _cli(capsys, *argv)
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "no placement for 2 panel(s) ('Detail', 'Detail 2'; DXF has none)" in err and "keiko.seams.json" in err
+    assert not (tmp_path / "g").exists()
+    # meshing a flat DXF needs neither
+    assert _cli(capsys, "mesh", dxf, "--out", tmp_path / "m", "-q")[0] == 0

@@ -164,3 +164,13 @@ def test_size_on_a_file_without_sizes_is_an_error(tmp_path, capsys):
     assert cli.main(["convert", str(pattern), "--size", "M", "--out", str(tmp_path / "x.svg")]) == 2
     assert "--size 'M' applies to a multi-size DXF file" in capsys.readouterr().err
     assert not (tmp_path / "x.svg").exists()
+
+
+def test_grading_a_multi_size_file_says_how_to_pick_a_size(run, tmp_path, capsys):
+    path, _ = run
+    bodies = DXF_DIR.parent / "bodies"
+    code = cli.main(["grade", str(path), "--base-body", str(bodies / "women_size06.obj"),
+                     "--target-body", str(bodies / "women_size10.obj"), "--out", str(tmp_path / "g"), "-q"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and "3 sizes (S, M, L" in err
+    assert f"seamfit convert {path.name} --size NAME --out NAME.json" in err and not (tmp_path / "g").exists()

@@ -22,16 +22,20 @@ def whole(option: str, value: int | None, minimum: int) -> None:
         raise SeamfitError(f"{option} {value}: must be >= {minimum}")
 
 
-def checked_pattern(path, edge_length_cm: float | None = None, warn=None):
+def checked_pattern(path, edge_length_cm: float | None = None, warn=None, *, drape: bool = True):
     """The pattern at ``path``, read within the size limits and validated as ``seamfit
     validate`` does (ValidationError lists every error; ``warn`` gets each warning); with
-    ``edge_length_cm``, also the mesh it would make held to the mesh size limit."""
+    ``edge_length_cm``, also the mesh it would make held to the mesh size limit; with
+    ``drape``, a DXF's stitches and placements present (seamfit.pattern.seams)."""
     from ..limits import check_mesh_size
     from ..pattern import check_pattern, load_pattern
+    from ..pattern.seams import check_drapable
     pattern = load_pattern(path)
     for m in check_pattern(pattern).warnings:
         if warn is not None:
             warn(m)
+    if drape:
+        check_drapable(pattern)
     if edge_length_cm is not None:
         check_mesh_size(pattern, edge_length_cm)
     return pattern

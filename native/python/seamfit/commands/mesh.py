@@ -49,7 +49,7 @@ def run(args) -> int:
     out = Path(args.out)
     t0 = time.perf_counter()
     # the checks of seamfit validate and the size limits, before any meshing
-    pattern = checked_pattern(args.pattern, h, warn=None if args.quiet else _warn)
+    pattern = checked_pattern(args.pattern, h, warn=None if args.quiet else _warn, drape=False)
     t_load = time.perf_counter() - t0
     with OutputSet(out, inputs=[args.pattern], force=args.force) as tmp:
         mesh = build_sewn_mesh(pattern, h)

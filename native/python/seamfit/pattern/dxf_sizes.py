@@ -280,7 +280,9 @@ def one_size(sizes: DxfSizes, size: str | None) -> Pattern:
         if len(sizes.patterns) > 1:
             sample = f"; sample size {sizes.sample_size}" if sizes.sample_size else ""
             raise PatternError(f"{sizes.path}: a multi-size DXF holding {len(sizes.patterns)} sizes ({listed}"
-                               f"{sample}); choose one with --size NAME")
+                               f"{sample}); choose one with --size NAME (convert, validate), or for the other "
+                               f"commands write it out first: seamfit convert {sizes.path.name} --size NAME "
+                               "--out NAME.json")
         return next(iter(sizes.patterns.values()))
     if size not in sizes.patterns:
         held = f"holds sizes {listed}" if sizes.labels else "names no size (no piece has a Size text)"

@@ -175,8 +175,8 @@ def sidecar_dict(pattern: Pattern, proposals: list[dict] | None = None) -> dict[
     placements = {}
     for p in pattern.panels:
         pl = p.placement
-        if pl.kind == "hint" and np.allclose(pl.rotation, np.eye(3)) and not np.any(pl.translation_m):
-            continue                             # the DXF reader's default: nothing to say
+        if _default_placement(pl):
+            continue                             # nothing to say
         # the placement's other keys too (the dressing's anchor_landmark, body_side, ...); a
         # landmark named there also by its point, since DXF keeps no landmark names
         entry = {"kind": pl.kind, "rotation_matrix": np.asarray(pl.rotation, float).tolist(),
@@ -286,6 +286,30 @@ def apply_sidecar(pattern: Pattern, path: str | Path) -> int:
         pattern.garment_type = str(d["garment_type"])
     pattern.stitches = stitches
     return len(stitches)
+
+
+def check_drapable(pattern: Pattern) -> None:
+    """A pattern read from a DXF is draped (drape, grade, grade-run) only with its stitches
+    and every panel's placement from the seams sidecar: without them the drape runs long and
+    fails far from the cause. PatternError naming the file, the sidecar and the panels."""
+    source = pattern.extra.get("source") or {}
+    if not str(source.get("format", "")).startswith("dxf"):
+        return
+    src = pattern.source_file or "<pattern>"
+    side = source.get("seams") or sidecar_path(src).name
+    if not pattern.stitches:
+        raise PatternError(f"{src}: no stitches (DXF has none): confirm them in the seams sidecar {side} "
+                           "(seamfit convert FILE --propose-seams SEAMS.json proposes them)")
+    unplaced = [p.name for p in pattern.panels if _default_placement(p.placement)]
+    if unplaced:
+        raise PatternError(f"{src}: no placement for {len(unplaced)} panel(s) ({', '.join(map(repr, unplaced))}; DXF "
+                           f"has none): give each its place around the body in the seams sidecar {side} "
+                           "(docs/formats.md, \"Grading a DXF\")")
+
+
+def _default_placement(pl: Placement) -> bool:
+    """The DXF reader's placement: a hint at the origin, unrotated (no place at all)."""
+    return pl.kind == "hint" and np.allclose(pl.rotation, np.eye(3)) and not np.any(pl.translation_m)
 
 
 def _vertex(panel: Panel, ref, where: str) -> int:

@@ -38,11 +38,13 @@ class NotchMiss:
 
 def _names(panel: Panel) -> dict[int, str]:
     names = {}
-    for k, entry in enumerate(panel.extra.get("notches") or []):
-        if isinstance(entry, dict) and isinstance(entry.get("vertex"), (int, np.integer)):
-            names[int(entry["vertex"])] = f"notch_{k}"
+    notches = panel.extra.get("notches")
+    for k, entry in enumerate(notches if isinstance(notches, list) else []):
+        v = entry.get("vertex") if isinstance(entry, dict) else None
+        if isinstance(v, (int, np.integer)) and not isinstance(v, bool):
+            names[int(v)] = f"notch_{k}"
     for name, v in panel.landmarks.items():      # the landmark's own name, where it has one
-        if isinstance(v, (int, np.integer)) and int(v) in names and name.startswith("notch"):
+        if isinstance(v, (int, np.integer)) and int(v) in names and str(name).startswith("notch"):
             names[int(v)] = name
     return names
 

@@ -149,7 +149,8 @@ def test_proposals_name_the_notches_that_do_not_line_up(tmp_path, capsys):
     assert "warning: proposed stitch" in err and "(A / B): notch_0 of panel 'A'" in err
 
 
-@pytest.mark.parametrize("notches", [5, "abc", {"vertex": 3}, [None, {"vertex": 10 ** 9}, {"vertex": "x"}, {"vertex": True}]])
+@pytest.mark.parametrize("notches", [5, "abc", {"vertex": 3},
+                                     [None, {"vertex": 10 ** 9}, {"vertex": "x"}, {"vertex": True}]])
 def test_malformed_notch_lists_are_not_compared(notches):
     p = load_pattern(PATTERNS / "gc_pencil_skirt/size06/pattern.json")
     p.panels[0].extra["notches"] = notches

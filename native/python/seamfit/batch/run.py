@@ -1,0 +1,257 @@
+"""The driver of ``seamfit batch``: skips the jobs already done under their settings hash,
+computes each base's shared work once (a task per base, into the content-keyed disk cache,
+before that base's jobs start), submits the jobs to Ray with their resources, and follows
+them to the end: the terminal, status.json, each job's record, the summary table."""
+from __future__ import annotations
+
+import os
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import SeamfitError
+from . import records
+from . import settings as job_settings
+from .tasks import JobCrashed, run_job_process
+
+STATUS_EVERY_S = 2.0          # status.json at most this often while nothing finishes
+TERMINAL_EVERY_S = 30.0       # a progress line while nothing finishes
+
+
+@dataclass
+class Resources:
+    threads: int = 1          # CPU threads of each job (OMP_NUM_THREADS), its Ray num_cpus
+    gpus: float = 1.0         # GPU share of a job whose device is cuda
+    memory_gb: float = 2.0    # memory each job declares
+    retries: int = 2          # retries of a job whose process or worker died
+
+
+def job_argv(job, out: Path, target_body: Path | None = None) -> list[str]:
+    """The ``seamfit grade`` / ``grade-run`` command line of a job (its output folder
+    replaced whole: only a job that is not done runs)."""
+    argv = [job.kind, str(job.pattern), "--base-body", str(job.base_body)]
+    t = job.target
+    if job.kind == "grade":
+        argv += ["--target-body", str(target_body or t["target_body"])]
+        if job.truth is not None:
+            argv += ["--truth", str(job.truth)]
+    elif "target_bodies" in t:
+        argv += ["--target-bodies", *map(str, t["target_bodies"])]
+    else:
+        argv += ["--size-chart", str(t["size_chart"])]
+    return argv + ["--out", str(out / job.id), "--force", *job_settings.to_argv(job.settings)]
+
+
+def job_spec(job, out: Path) -> dict:
+    if job.kind == "grade" and "target_body" not in job.target:
+        body = out / "bodies" / f"{job.id}.obj"
+        source = job.target.get("measurements") or job.target["size_chart"]
+        return {"op": "grade", "argv": job_argv(job, out, body),
+                "make_body": {"file": str(source), "size": job.target.get("size"), "out": str(body)}}
+    return {"op": "grade", "argv": job_argv(job, out)}
+
+
+# What a base's shared work depends on: the pattern, the base body and these settings.
+BASE_SETTINGS = ("edge_length", "sdf_spacing", "sdf_region", "sdf_margin", "device")
+
+
+def base_key(job) -> tuple:
+    s = {**job_settings.defaults(), **job.settings}
+    return (str(job.pattern), str(job.base_body), *(s[k] for k in BASE_SETTINGS))
+
+
+def base_argv(job) -> list[str]:
+    shared = {k: v for k, v in job.settings.items() if k in BASE_SETTINGS}
+    return [str(job.pattern), str(job.base_body), *job_settings.to_argv(shared)]
+
+
+def _last_line(log: Path) -> str:
+    try:
+        lines = [ln.strip() for ln in log.read_text(errors="replace").splitlines() if ln.strip()]
+    except OSError:
+        return ""
+    errors = [ln for ln in lines if ": error: " in ln or "internal error" in ln]
+    return (errors or [ln for ln in lines if not ln.startswith("--- seamfit batch")] or [""])[-1]
+
+
+def run_batch(manifest: Path, jobs: list, out: Path, *, address: str | None, cpus: int | None,
+              res: Resources, cache_dir: Path | None, quiet: bool) -> int:
+    """Run ``jobs``; 0 when every job's results are written, 1 when any job failed or
+    exited 1 (the others are written)."""
+    import ray
+
+    out = Path(os.path.abspath(out))
+    if out.exists() and not out.is_dir():
+        raise SeamfitError(f"{out}: exists and is not a folder")
+    for sub in ("jobs", "logs", "running", "bodies"):
+        (out / sub).mkdir(parents=True, exist_ok=True)
+
+    def say(line: str) -> None:
+        if not quiet:
+            print(line, file=sys.stderr, flush=True)
+
+    status = records.Status(out, manifest, [j.id for j in jobs])
+    final: dict[str, dict] = {}
+    todo = []
+    for job in jobs:
+        digest = records.settings_hash(job)
+        rec = records.is_done(out, job, digest)
+        if rec is not None:
+            final[job.id] = {**rec, "state": "skipped"}
+            status.set(job.id, "skipped")
+        else:
+            todo.append((job, digest))
+            for stale in (out / "running" / f"{job.id}.json", out / "logs" / f"{job.id}.log"):
+                stale.unlink(missing_ok=True)      # a new run: attempts counted afresh
+    say(f"seamfit batch: {len(jobs)} jobs, {len(jobs) - len(todo)} already done (skipped), {len(todo)} to run")
+    status.write()
+    if not todo:
+        return _finish(out, jobs, final, status, say)
+
+    env = {}
+    if cache_dir is not None:
+        env["SEAMFIT_CACHE_DIR"] = str(Path(os.path.abspath(cache_dir)))
+    # The job processes import the same seamfit as this one.
+    package_root = str(Path(__file__).resolve().parents[2])
+    env["PYTHONPATH"] = os.pathsep.join([package_root, *filter(None, [os.environ.get("PYTHONPATH")])])
+    started_ray = not ray.is_initialized()
+    if started_ray:
+        os.environ["PYTHONPATH"] = env["PYTHONPATH"]     # for the workers Ray starts here
+        kwargs = {"address": address} if address else {"num_cpus": cpus}
+        ray.init(include_dashboard=False, log_to_driver=False, logging_level="ERROR", **kwargs)
+    try:
+        return _drive(ray, out, jobs, todo, final, status, res, env, say)
+    finally:
+        if started_ray:
+            ray.shutdown()
+
+
+def _drive(ray, out, jobs, todo, final, status, res, env, say) -> int:
+    task = ray.remote(run_job_process)
+    gb = 1024 ** 3
+
+    def options(job, name):
+        cuda = {**job_settings.defaults(), **job.settings}["device"] == "cuda"
+        return task.options(num_cpus=res.threads, num_gpus=res.gpus if cuda else 0,
+                            memory=int(res.memory_gb * gb), max_retries=res.retries,
+                            retry_exceptions=[JobCrashed], name=name)
+
+    pending: dict = {}
+    t_submit: dict = {}
+
+    def submit(job, digest):
+        ref = options(job, f"seamfit {job.id}").remote(
+            job_spec(job, out), str(out / "logs" / f"{job.id}.log"), str(out / "running" / f"{job.id}.json"),
+            res.threads, env)
+        pending[ref] = ("job", job, digest)
+
+    groups: dict = {}
+    for job, digest in todo:
+        groups.setdefault(base_key(job), []).append((job, digest))
+    for n, (key, members) in enumerate(groups.items(), 1):
+        if len(members) < 2:
+            for m in members:
+                submit(*m)
+            continue
+        job = members[0][0]
+        name = f"base-{n}"
+        ref = options(job, f"seamfit {name}").remote(
+            {"op": "prepare", "argv": base_argv(job)}, str(out / "logs" / f"{name}.log"),
+            str(out / "running" / f"{name}.json"), res.threads, env)
+        pending[ref] = ("base", members, name)
+
+    last_status = last_line = time.time()
+    try:
+        while pending:
+            ready, _ = ray.wait(list(pending), num_returns=1, timeout=1.0)
+            for ref in ready:
+                what = pending.pop(ref)
+                if what[0] == "base":
+                    _base_done(ray, ref, what[2], out, say)
+                    for m in what[1]:
+                        submit(*m)
+                    continue
+                job, digest = what[1], what[2]
+                rec = _job_done(ray, ref, job, digest, out)
+                records.write_record(out, rec)
+                (out / "running" / f"{job.id}.json").unlink(missing_ok=True)
+                final[job.id] = rec
+                status.set(job.id, rec["state"], gradings=(rec.get("results") or {}).get("sizes", 1)
+                           if rec["state"] == "done" else 0)
+                if rec["state"] == "done":
+                    say(f"done    {job.id}: exit {rec['exit']}, {rec['seconds']:.1f} s")
+                else:
+                    say(f"FAILED  {job.id}: {rec['reason']} (log: {rec['log']})")
+            _mark_running(out, status)
+            now = time.time()
+            if ready or now - last_status > STATUS_EVERY_S:
+                status.write()
+                last_status = now
+            if ready or now - last_line > TERMINAL_EVERY_S:
+                say(status.line())
+                last_line = now
+    except BaseException:
+        for ref in pending:
+            ray.cancel(ref, force=True)
+        _finish(out, jobs, final, status, say, interrupted=True)
+        raise
+    return _finish(out, jobs, final, status, say)
+
+
+def _mark_running(out: Path, status) -> None:
+    for job_id, state in list(status.state.items()):
+        if state in ("queued", "running"):
+            status.state[job_id] = "running" if (out / "running" / f"{job_id}.json").exists() else "queued"
+
+
+def _base_done(ray, ref, name, out, say) -> None:
+    try:
+        r = ray.get(ref)
+        ok = r["exit"] == 0
+    except Exception:
+        ok = False
+    (out / "running" / f"{name}.json").unlink(missing_ok=True)
+    if not ok:     # the jobs make it themselves, and each says why in its own log
+        say(f"note    {name}: the base's shared work failed ({_last_line(out / 'logs' / f'{name}.log')}); "
+            "its jobs build it themselves")
+
+
+def _job_done(ray, ref, job, digest, out) -> dict:
+    log = out / "logs" / f"{job.id}.log"
+    rec = {"id": job.id, "kind": job.kind, "hash": digest, "log": str(log.relative_to(out)),
+           "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+    try:
+        r = ray.get(ref)
+    except Exception as exc:
+        attempts = _attempts(out, job.id)
+        cause = "worker lost" if not isinstance(getattr(exc, "cause", None), JobCrashed) else "process killed"
+        return {**rec, "state": "failed", "exit": None, "seconds": None, "attempts": attempts,
+                "reason": f"{cause} on each of {attempts} attempts"}
+    rec.update(exit=r["exit"], seconds=r["seconds"], attempts=r["attempts"])
+    if r["exit"] in (0, 1):
+        try:
+            rec["results"] = records.results_of(out / job.id, job.kind)
+            return {**rec, "state": "done"}
+        except (OSError, ValueError, KeyError) as exc:
+            return {**rec, "state": "failed", "reason": f"its results cannot be read: {exc}"}
+    return {**rec, "state": "failed", "reason": f"exit {r['exit']}: {_last_line(log)}"}
+
+
+def _attempts(out: Path, job_id: str) -> int:
+    try:
+        return (out / "logs" / f"{job_id}.log").read_text(errors="replace").count("--- seamfit batch: attempt ")
+    except OSError:
+        return 0
+
+
+def _finish(out, jobs, final, status, say, interrupted: bool = False) -> int:
+    rows = [final.get(j.id, {"id": j.id, "kind": j.kind, "state": "not run" if interrupted else "queued"})
+            for j in jobs]
+    records.write_summary(out, rows)
+    snap = status.write()
+    say(records.table(rows))
+    say(f"seamfit batch: {snap['done']} done, {snap['skipped']} skipped, {snap['failed']} failed of {snap['total']}; "
+        f"wrote {out}/summary.json, summary.csv, status.json")
+    bad = any(r.get("state") == "failed" or r.get("exit") == 1 for r in rows)
+    return 1 if bad else 0

@@ -1,0 +1,196 @@
+"""seamfit batch on a real local Ray instance (2 CPUs) at a coarse setting: a manifest's
+problems named by job and field before any work; a run whose good jobs write their results
+while a job with a bad input fails alone with its log; a rerun that skips what is done; a
+worker killed mid-job whose job is retried and finishes."""
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("ray", reason="seamfit batch needs ray (pip install 'seamfit[batch]')")
+
+from seamfit.cli import main  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLES = ROOT / "sample_files"
+PATTERN = SAMPLES / "patterns/gc_pencil_skirt/size06/pattern.json"
+B0 = SAMPLES / "bodies/women_size06.obj"
+B10 = SAMPLES / "bodies/women_size10.obj"
+ME = SAMPLES / "measurements/me.json"
+COARSE = {"edge_length": 5, "sdf_spacing": 0.01, "max_iterations": 2, "checkpoint_every": 1, "no_picture": True}
+
+
+def _sha(path):
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _write(path: Path, data) -> Path:
+    path.write_text(json.dumps(data, indent=1))
+    return path
+
+
+# ----------------------------------------------------------------------- manifest checks
+
+def test_manifest_problems_name_the_job_and_the_field(tmp_path, capsys):
+    manifest = _write(tmp_path / "m.json", {"defaults": {"pattern": str(PATTERN), "base_body": str(B0)}, "jobs": [
+        {"id": "ok", "target_body": str(B10)},
+        {"id": "typo", "target_body": str(B10), "edge_lenght": 3},
+        {"id": "nan", "target_body": str(B10), "edge_length": "abc"},
+        {"id": "neg", "target_body": str(B10), "max_iterations": -1},
+        {"id": "preset", "target_body": str(B10), "preset": "ballgown"},
+        {"id": "two", "target_body": str(B10), "measurements": str(ME)},
+        {"target_body": str(B10)},
+        {"id": "ok", "target_body": str(B10)},
+        {"id": "../up", "target_body": str(B10)},
+    ]})
+    out = tmp_path / "out"
+    assert main(["batch", str(manifest), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert all(ln.startswith("seamfit batch: error: ") for ln in lines), err
+    assert "Traceback" not in err
+    for expected in ("job 'typo': edge_lenght: unknown field",
+                     "job 'nan': edge_length: 'abc' is not a number",
+                     "job 'neg': max_iterations: --max-iterations -1: must be >= 0",
+                     "job 'preset': preset: 'ballgown' is not one of",
+                     "job 'two': measurements: give one target, not both target_body and measurements",
+                     "job 7: id: missing",
+                     "job 'ok': id: 'ok' is also the id of job 'ok'",
+                     "job '../up': id: '../up' cannot name a folder"):
+        assert any(expected in ln for ln in lines), (expected, err)
+    assert not out.exists(), "nothing is written for a bad manifest"
+
+
+def test_csv_manifest_rows_are_checked_by_row_and_job(tmp_path, capsys):
+    manifest = tmp_path / "m.csv"
+    with open(manifest, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["id", "pattern", "base_body", "target_body", "edge_length", "fail_unconverged"])
+        w.writerow(["a", str(PATTERN), str(B0), str(B10), "5", "yes"])
+        w.writerow(["b", str(PATTERN), str(B0), "", "nan", "maybe"])
+    assert main(["batch", str(manifest), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "row 3 (job 'b'): target_body: missing" in err
+    assert "row 3 (job 'b'): fail_unconverged: 'maybe' is not true or false" in err
+    assert "row 2" not in err
+
+
+# ----------------------------------------------------------------------- runs on Ray
+
+@pytest.fixture(scope="module")
+def first_run(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("batch")
+    broken = tmp / "broken.obj"
+    broken.write_text("v 0 0 0\nthis is not a body\n")
+    manifest = _write(tmp / "manifest.json", {
+        "defaults": {"pattern": str(PATTERN), "base_body": str(B0), **COARSE},
+        "jobs": [{"id": "size10", "target_body": str(B10)},
+                 {"id": "me", "measurements": str(ME)},
+                 {"id": "broken", "target_body": str(broken)}]})
+    out, cache = tmp / "out", tmp / "cache"
+    before = [_sha(p) for p in (PATTERN, B0, B10, ME, broken, manifest)]
+    t0 = time.perf_counter()
+    code = main(["batch", str(manifest), "--out", str(out), "--cpus", "2", "--cache-dir", str(cache), "-q"])
+    seconds = time.perf_counter() - t0
+    assert [_sha(p) for p in (PATTERN, B0, B10, ME, broken, manifest)] == before, "inputs are never modified"
+    return manifest, out, cache, code, seconds
+
+
+def test_good_jobs_write_their_results_and_a_bad_one_fails_alone_with_its_log(first_run):
+    manifest, out, cache, code, _ = first_run
+    assert code == 1, "a failed job makes the batch exit 1, the others' results written"
+    for job in ("size10", "me"):
+        rep = json.loads((out / job / "report.json").read_text())
+        assert rep["outer_iterations"] >= 1 and (out / job / "pattern.json").stat().st_size > 0
+        rec = json.loads((out / "jobs" / f"{job}.json").read_text())
+        assert rec["state"] == "done" and rec["exit"] == 0 and rec["attempts"] == 1
+        assert rec["results"]["converged"] == rep["converged"]
+        assert rec["results"]["ease_error_cm"]["hip"] == pytest.approx(
+            rep["ease_cm"]["result"]["hip"] - rep["ease_cm"]["base"]["hip"], abs=1e-3)
+        # the base's shared work was done once, before its jobs: each found the drape cached
+        assert rep["base_drape"]["cached"] is True, job
+    assert "base ready" in (out / "logs" / "base-1.log").read_text()
+    assert list((cache / "drape").glob("*.npz")), "the shared cache is the one given"
+    # the body made from the measurements is the one graded to
+    assert json.loads((out / "me/report.json").read_text())["inputs"]["target_body"] == str(out / "bodies/me.obj")
+    bad = json.loads((out / "jobs/broken.json").read_text())
+    assert bad["state"] == "failed" and bad["exit"] == 2 and bad["attempts"] == 1, "a bad input is not retried"
+    log = (out / bad["log"]).read_text()
+    assert "seamfit grade: error:" in log and "broken.obj" in log
+    assert "broken.obj" in bad["reason"]
+    assert not (out / "broken").exists()
+    status = json.loads((out / "status.json").read_text())
+    assert (status["total"], status["done"], status["failed"], status["finished"]) == (3, 2, 1, True)
+    assert status["failed_jobs"] == ["broken"] and status["gradings"] == 2
+    rows = list(csv.DictReader((out / "summary.csv").read_text().splitlines()))
+    assert [(r["job"], r["state"]) for r in rows] == [("size10", "done"), ("me", "done"), ("broken", "failed")]
+    assert not list(out.glob(".*seamfit-tmp*")), "no half-written set is left"
+
+
+def test_a_rerun_skips_finished_jobs_and_redoes_a_changed_one(first_run, capsys):
+    manifest, out, cache, _, _ = first_run
+    stamp = {j: (out / j / "report.json").stat().st_mtime_ns for j in ("size10", "me")}
+    data = json.loads(manifest.read_text())
+    data["jobs"] = data["jobs"][:2]                     # the good jobs: nothing is left to run
+    again = _write(manifest.parent / "again.json", data)
+    assert main(["batch", str(again), "--out", str(out), "--cpus", "2", "--cache-dir", str(cache)]) == 0
+    err = capsys.readouterr().err
+    assert "2 jobs, 2 already done (skipped), 0 to run" in err
+    assert {j: (out / j / "report.json").stat().st_mtime_ns for j in stamp} == stamp, "done jobs are not redone"
+    status = json.loads((out / "status.json").read_text())
+    assert (status["skipped"], status["done"], status["finished"]) == (2, 0, True)
+    # a changed setting or input changes the job's settings hash: that job is no longer done
+    from seamfit.batch.manifest import read_manifest
+    from seamfit.batch.records import is_done, settings_hash
+    jobs = {j.id: j for j in read_manifest(again)}
+    assert is_done(out, jobs["size10"], settings_hash(jobs["size10"])) is not None
+    jobs["size10"].settings["max_iterations"] = 3
+    assert is_done(out, jobs["size10"], settings_hash(jobs["size10"])) is None
+    jobs["me"].target["measurements"] = SAMPLES / "measurements/ann.vit"
+    assert is_done(out, jobs["me"], settings_hash(jobs["me"])) is None
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def test_a_killed_worker_is_retried_and_its_job_finishes(tmp_path, first_run):
+    manifest = tmp_path / "m.csv"
+    with open(manifest, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["id", "pattern", "base_body", "target_body", *COARSE])
+        w.writerow(["size10", PATTERN, B0, B10, *COARSE.values()])
+    out = tmp_path / "out"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "native/python"), *sys.path]),
+               SEAMFIT_CACHE_DIR=str(first_run[2]))     # the base's field and drape are cached
+    proc = subprocess.Popen([sys.executable, "-m", "seamfit", "batch", str(manifest), "--out", str(out),
+                             "--cpus", "2", "--retries", "1"], env=env, stderr=subprocess.PIPE, text=True)
+    marker, log = out / "running/size10.json", out / "logs/size10.log"
+    deadline = time.time() + 120
+    while time.time() < deadline and not (marker.exists() and "body fields" in log.read_text()):
+        time.sleep(0.2)
+    first = json.loads(marker.read_text())
+    assert first["attempt"] == 1
+    os.kill(first["worker_pid"], signal.SIGKILL)     # the worker, mid-grading
+    _, err = proc.communicate(timeout=240)
+    assert proc.returncode == 0, err
+    rec = json.loads((out / "jobs/size10.json").read_text())
+    assert rec["state"] == "done" and rec["attempts"] == 2
+    text = log.read_text()
+    assert text.count("--- seamfit batch: attempt ") == 2
+    assert (out / "size10/report.json").is_file() and (out / "size10/pattern.json").is_file()
+    assert not _alive(first["pid"]), "the first attempt's grading died with its worker"
+    assert not list(out.glob(".*seamfit-tmp*")), "the killed attempt left no half-written set"

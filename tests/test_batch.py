@@ -11,6 +11,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -87,7 +88,17 @@ def test_csv_manifest_rows_are_checked_by_row_and_job(tmp_path, capsys):
 # ----------------------------------------------------------------------- runs on Ray
 
 @pytest.fixture(scope="module")
-def first_run(tmp_path_factory):
+def local_ray():
+    """One local Ray instance (2 CPUs) for the in-process runs, which use it as they find it
+    (its start costs about 8 s on 2 cores); the stopped batch starts its own."""
+    import ray
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, logging_level="ERROR")
+    yield ray
+    ray.shutdown()
+
+
+@pytest.fixture(scope="module")
+def first_run(tmp_path_factory, local_ray):
     tmp = tmp_path_factory.mktemp("batch")
     broken = tmp / "broken.obj"
     broken.write_text("v 0 0 0\nthis is not a body\n")
@@ -174,23 +185,47 @@ def test_a_killed_worker_is_retried_and_its_job_finishes(tmp_path, first_run):
         w.writerow(["id", "pattern", "base_body", "target_body", *COARSE])
         w.writerow(["size10", PATTERN, B0, B10, *COARSE.values()])
     out = tmp_path / "out"
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "native/python"), *sys.path]),
-               SEAMFIT_CACHE_DIR=str(first_run[2]))     # the base's field and drape are cached
-    proc = subprocess.Popen([sys.executable, "-m", "seamfit", "batch", str(manifest), "--out", str(out),
-                             "--cpus", "2", "--retries", "1"], env=env, stderr=subprocess.PIPE, text=True)
     marker, log = out / "running/size10.json", out / "logs/size10.log"
-    deadline = time.time() + 120
-    while time.time() < deadline and not (marker.exists() and "body fields" in log.read_text()):
-        time.sleep(0.2)
-    first = json.loads(marker.read_text())
-    assert first["attempt"] == 1
-    os.kill(first["worker_pid"], signal.SIGKILL)     # the worker, mid-grading
-    _, err = proc.communicate(timeout=240)
-    assert proc.returncode == 0, err
+    killed = {}
+
+    def kill_the_worker_mid_grading():
+        deadline = time.time() + 120
+        while time.time() < deadline and not (marker.exists() and list(out.glob(".size10.seamfit-tmp-*"))):
+            time.sleep(0.05)
+        killed.update(json.loads(marker.read_text()))
+        os.kill(killed["worker_pid"], signal.SIGKILL)
+
+    killer = threading.Thread(target=kill_the_worker_mid_grading, daemon=True)
+    killer.start()
+    code = main(["batch", str(manifest), "--out", str(out), "--retries", "1", "--cache-dir", str(first_run[2]), "-q"])
+    killer.join()
+    assert code == 0 and killed["attempt"] == 1
     rec = json.loads((out / "jobs/size10.json").read_text())
     assert rec["state"] == "done" and rec["attempts"] == 2
-    text = log.read_text()
-    assert text.count("--- seamfit batch: attempt ") == 2
+    assert log.read_text().count("--- seamfit batch: attempt ") == 2
     assert (out / "size10/report.json").is_file() and (out / "size10/pattern.json").is_file()
-    assert not _alive(first["pid"]), "the first attempt's grading died with its worker"
+    assert not _alive(killed["pid"]), "the first attempt's grading died with its worker"
     assert not list(out.glob(".*seamfit-tmp*")), "the killed attempt left no half-written set"
+
+
+def test_a_stopped_batch_ends_its_jobs_cleanly_and_keeps_what_is_done(tmp_path, first_run):
+    manifest = _write(tmp_path / "m.json", {"defaults": {"pattern": str(PATTERN), "base_body": str(B0), **COARSE},
+                                            "jobs": [{"id": "size10", "target_body": str(B10)}]})
+    out = tmp_path / "out"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "native/python"), *sys.path]),
+               SEAMFIT_CACHE_DIR=str(first_run[2]))
+    proc = subprocess.Popen([sys.executable, "-m", "seamfit", "batch", str(manifest), "--out", str(out),
+                             "--cpus", "1"], env=env, stderr=subprocess.PIPE, text=True)
+    marker = out / "running/size10.json"
+    deadline = time.time() + 120
+    while time.time() < deadline and not (marker.exists() and list(out.glob(".size10.seamfit-tmp-*"))):
+        time.sleep(0.1)
+    job_pid = json.loads(marker.read_text())["pid"]
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143 and "seamfit batch: terminated (SIGTERM)" in err, err
+    assert not _alive(job_pid), "the job's process ended with the batch"
+    assert not list(out.glob(".*seamfit-tmp*")) and not (out / "size10").exists(), "no half-written set"
+    rows = json.loads((out / "summary.json").read_text())["jobs"]
+    assert [(r["id"], r["state"]) for r in rows] == [("size10", "not run")]
+    assert not json.loads((out / "status.json").read_text())["finished"]

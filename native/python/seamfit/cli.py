@@ -39,7 +39,12 @@ class Terminated(KeyboardInterrupt):
     half-written cache files) instead of the process dying where it stands."""
 
 
+_sigterm_seen = False
+
+
 def _on_sigterm(signum, frame):
+    global _sigterm_seen
+    _sigterm_seen = True      # a library may re-raise it as a plain KeyboardInterrupt (Ray's wait)
     raise Terminated()
 
 
@@ -52,6 +57,8 @@ def main(argv: list[str] | None = None) -> int:
 def run_guarded(command: str, fn) -> int:
     """``fn()``'s exit code, with the errors a user can cause as one-line messages, and
     SIGTERM handled as Ctrl-C (see the exit codes in docs/cli.md)."""
+    global _sigterm_seen
+    _sigterm_seen = False
     installed, previous = _install_sigterm()
     try:
         return int(fn() or 0)
@@ -66,12 +73,12 @@ def run_guarded(command: str, fn) -> int:
         _print_errors(command, ["out of memory; try a larger --edge-length or spacing, or a "
                                 "smaller input (docs/cli.md, Limits)"])
         return 2
-    except Terminated:
+    except KeyboardInterrupt as exc:
+        if not (isinstance(exc, Terminated) or _sigterm_seen):
+            print(f"seamfit {command}: interrupted (SIGINT)", file=sys.stderr)
+            return 128 + signal.SIGINT
         print(f"seamfit {command}: terminated (SIGTERM)", file=sys.stderr)
         return 128 + signal.SIGTERM
-    except KeyboardInterrupt:
-        print(f"seamfit {command}: interrupted (SIGINT)", file=sys.stderr)
-        return 128 + signal.SIGINT
     except Exception as exc:                     # a bug: one line, the traceback on request
         if os.environ.get("SEAMFIT_TRACEBACK"):
             raise

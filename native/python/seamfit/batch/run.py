@@ -5,7 +5,9 @@ them to the end: the terminal, status.json, each job's record, the summary table
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,7 +15,7 @@ from pathlib import Path
 from ..errors import SeamfitError
 from . import records
 from . import settings as job_settings
-from .tasks import JobCrashed, run_job_process
+from .tasks import STOP_FILE, JobCrashed, run_job_process, sweep_leftovers
 
 STATUS_EVERY_S = 2.0          # status.json at most this often while nothing finishes
 TERMINAL_EVERY_S = 30.0       # a progress line while nothing finishes
@@ -44,12 +46,13 @@ def job_argv(job, out: Path, target_body: Path | None = None) -> list[str]:
 
 
 def job_spec(job, out: Path) -> dict:
+    spec = {"op": "grade", "job": job.id, "out": str(out)}
     if job.kind == "grade" and "target_body" not in job.target:
         body = out / "bodies" / f"{job.id}.obj"
         source = job.target.get("measurements") or job.target["size_chart"]
-        return {"op": "grade", "argv": job_argv(job, out, body),
+        return {**spec, "argv": job_argv(job, out, body),
                 "make_body": {"file": str(source), "size": job.target.get("size"), "out": str(body)}}
-    return {"op": "grade", "argv": job_argv(job, out)}
+    return {**spec, "argv": job_argv(job, out)}
 
 
 # What a base's shared work depends on: the pattern, the base body and these settings.
@@ -104,6 +107,7 @@ def run_batch(manifest: Path, jobs: list, out: Path, *, address: str | None, cpu
             todo.append((job, digest))
             for stale in (out / "running" / f"{job.id}.json", out / "logs" / f"{job.id}.log"):
                 stale.unlink(missing_ok=True)      # a new run: attempts counted afresh
+            sweep_leftovers(out, job.id)
     say(f"seamfit batch: {len(jobs)} jobs, {len(jobs) - len(todo)} already done (skipped), {len(todo)} to run")
     status.write()
     if not todo:
@@ -115,11 +119,15 @@ def run_batch(manifest: Path, jobs: list, out: Path, *, address: str | None, cpu
     # The job processes import the same seamfit as this one.
     package_root = str(Path(__file__).resolve().parents[2])
     env["PYTHONPATH"] = os.pathsep.join([package_root, *filter(None, [os.environ.get("PYTHONPATH")])])
+    (out / "running" / STOP_FILE).unlink(missing_ok=True)
     started_ray = not ray.is_initialized()
     if started_ray:
         os.environ["PYTHONPATH"] = env["PYTHONPATH"]     # for the workers Ray starts here
         kwargs = {"address": address} if address else {"num_cpus": cpus}
+        handler = signal.getsignal(signal.SIGTERM)
         ray.init(include_dashboard=False, log_to_driver=False, logging_level="ERROR", **kwargs)
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, handler)   # ray.init puts in its own (sys.exit): seamfit's stops the jobs
     try:
         return _drive(ray, out, jobs, todo, final, status, res, env, say)
     finally:
@@ -192,11 +200,37 @@ def _drive(ray, out, jobs, todo, final, status, res, env, say) -> int:
                 say(status.line())
                 last_line = now
     except BaseException:
+        _stop_processes(out)         # each cleans up its temporary folder, as grade does on Ctrl-C
         for ref in pending:
             ray.cancel(ref, force=True)
         _finish(out, jobs, final, status, say, interrupted=True)
         raise
     return _finish(out, jobs, final, status, say)
+
+
+def _stop_processes(out: Path, wait_s: float = 10.0) -> None:
+    """SIGTERM to the job processes of this machine (a cluster's other nodes lose theirs
+    with their workers), and a wait for them to end."""
+    import json
+    import socket
+    pids = []
+    (out / "running" / STOP_FILE).touch()      # the tasks: a process ended by us is not a crash
+    for marker in (out / "running").glob("*.json"):
+        try:
+            m = json.loads(marker.read_text())
+            cmdline = Path(f"/proc/{int(m['pid'])}/cmdline").read_bytes()
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        if m.get("host") == socket.gethostname() and b"seamfit.batch.job" in cmdline:
+            try:
+                os.kill(int(m["pid"]), signal.SIGTERM)
+                pids.append(int(m["pid"]))
+            except OSError:
+                pass
+    deadline = time.time() + wait_s
+    while pids and time.time() < deadline:
+        pids = [p for p in pids if Path(f"/proc/{p}").exists()]
+        time.sleep(0.1)
 
 
 def _mark_running(out: Path, status) -> None:

@@ -7,11 +7,16 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import socket
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+
+# In running/: the driver is stopping the batch and ends the job processes itself.
+STOP_FILE = "STOP"
 
 
 class JobCrashed(RuntimeError):
@@ -31,6 +36,8 @@ def run_job_process(spec: dict, log: str, marker: str, threads: int, env: dict) 
     from ..fileio import atomic_write_text
     log, marker = Path(log), Path(marker)
     attempt = _attempt(marker)
+    if attempt > 1 and spec.get("job"):
+        sweep_leftovers(Path(spec["out"]), spec["job"])
     log.parent.mkdir(parents=True, exist_ok=True)
     child_env = {**os.environ, **env, "OMP_NUM_THREADS": str(threads), "PYTHONUNBUFFERED": "1"}
     t0 = time.time()
@@ -45,6 +52,15 @@ def run_job_process(spec: dict, log: str, marker: str, threads: int, env: dict) 
         rc = proc.wait()
         if rc < 0:
             f.write(f"--- seamfit batch: the job's process died of signal {-rc}\n")
-    if rc < 0:
+    if rc < 0 and not (marker.parent / STOP_FILE).exists():
         raise JobCrashed(f"the job's process died of signal {-rc} (attempt {attempt})")
     return {"exit": rc, "seconds": round(time.time() - t0, 2), "attempts": attempt}
+
+
+def sweep_leftovers(out: Path, job_id: str) -> None:
+    """Temporary folders of a job's earlier attempt that died by SIGKILL (never a result:
+    docs/cli.md, "Output sets")."""
+    from ..output_set import OLD_TAG, TMP_TAG
+    for tag in (TMP_TAG, OLD_TAG):
+        for p in out.glob(f".{job_id}{tag}*"):
+            shutil.rmtree(p, ignore_errors=True)

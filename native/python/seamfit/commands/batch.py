@@ -13,6 +13,7 @@ See docs/batch.md.
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from ..errors import SeamfitError
@@ -65,6 +66,9 @@ def run(args) -> int:
     number("--gpus-per-job", args.gpus_per_job)
     number("--memory-per-job", args.memory_per_job)
     jobs = read_manifest(args.manifest)        # every job checked before Ray starts
+    # Ray's own SIGTERM handler (read when ray is imported) would abort the driver (exit 134)
+    # after seamfit's has stopped the jobs: SIGTERM is seamfit's to handle (exit 143).
+    os.environ.setdefault("RAY_DISABLE_FAILURE_SIGNAL_HANDLER", "1")
     try:
         import ray  # noqa: F401
     except ImportError:

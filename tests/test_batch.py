@@ -69,6 +69,13 @@ def test_manifest_problems_name_the_job_and_the_field(tmp_path, capsys):
                      "job '../up': id: '../up' cannot name a folder"):
         assert any(expected in ln for ln in lines), (expected, err)
     assert not out.exists(), "nothing is written for a bad manifest"
+    # a bad default is named once, as the defaults' field, not once per job
+    bad_default = _write(tmp_path / "d.json", {"defaults": {"max_iterations": "many"},
+                                               "jobs": [{"id": f"j{k}"} for k in range(20)]})
+    assert main(["batch", str(bad_default), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.strip().splitlines() == [f"seamfit batch: error: {bad_default}: defaults: max_iterations: "
+                                        "'many' is not a whole number"]
 
 
 def test_csv_manifest_rows_are_checked_by_row_and_job(tmp_path, capsys):

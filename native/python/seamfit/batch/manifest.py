@@ -108,6 +108,7 @@ def _json_rows(path: Path, text: str) -> list[tuple[str, dict]]:
             raise SeamfitError(f"{path}: defaults: must be an object of fields")
         if "id" in defaults:
             raise SeamfitError(f"{path}: defaults: id: every job needs its own id")
+        _check_default_settings(path, defaults)
         data = data.get("jobs")
     if not isinstance(data, list):
         raise SeamfitError(f"{path}: jobs: must be a list of jobs")
@@ -120,6 +121,26 @@ def _json_rows(path: Path, text: str) -> list[tuple[str, dict]]:
             where = f"job {job['id']!r}"
         rows.append((where, {**defaults, **job}))
     return rows
+
+
+def _check_default_settings(path: Path, defaults: dict) -> None:
+    """The defaults' settings, once (not once per job that inherits them)."""
+    names = set(job_settings.setting_names())
+    problems = []
+    for k, v in defaults.items():
+        if k in PATH_FIELDS or k in TARGETS or k == "size":
+            continue
+        name = k.replace("-", "_")
+        if name not in names:
+            problems.append(f"{path}: defaults: {k}: unknown field (the settings of seamfit grade: "
+                            + ", ".join(sorted(names)) + ")")
+            continue
+        try:
+            job_settings.convert(name, v)
+        except ValueError as exc:
+            problems.append(f"{path}: defaults: {k}: {exc}")
+    if problems:
+        raise ManifestError(problems)
 
 
 def _csv_rows(path: Path, text: str) -> list[tuple[str, dict]]:

@@ -27,6 +27,8 @@ PATTERN = SAMPLES / "patterns/gc_pencil_skirt/size06/pattern.json"
 B0 = SAMPLES / "bodies/women_size06.obj"
 B10 = SAMPLES / "bodies/women_size10.obj"
 ME = SAMPLES / "measurements/me.json"
+# a coarse grading peaks at about 130 MB: half a GB each lets 2 run at once on a small CI machine
+SMALL = ["--memory-per-job", "0.5"]
 COARSE = {"edge_length": 5, "sdf_spacing": 0.01, "max_iterations": 2, "checkpoint_every": 1, "no_picture": True}
 
 
@@ -117,7 +119,7 @@ def first_run(tmp_path_factory, local_ray):
     out, cache = tmp / "out", tmp / "cache"
     before = [_sha(p) for p in (PATTERN, B0, B10, ME, broken, manifest)]
     t0 = time.perf_counter()
-    code = main(["batch", str(manifest), "--out", str(out), "--cpus", "2", "--cache-dir", str(cache), "-q"])
+    code = main(["batch", str(manifest), "--out", str(out), "--cache-dir", str(cache), "-q", *SMALL])
     seconds = time.perf_counter() - t0
     assert [_sha(p) for p in (PATTERN, B0, B10, ME, broken, manifest)] == before, "inputs are never modified"
     return manifest, out, cache, code, seconds
@@ -160,7 +162,7 @@ def test_a_rerun_skips_finished_jobs_and_redoes_a_changed_one(first_run, capsys)
     data = json.loads(manifest.read_text())
     data["jobs"] = data["jobs"][:2]                     # the good jobs: nothing is left to run
     again = _write(manifest.parent / "again.json", data)
-    assert main(["batch", str(again), "--out", str(out), "--cpus", "2", "--cache-dir", str(cache)]) == 0
+    assert main(["batch", str(again), "--out", str(out), "--cache-dir", str(cache)]) == 0
     err = capsys.readouterr().err
     assert "2 jobs, 2 already done (skipped), 0 to run" in err
     assert {j: (out / j / "report.json").stat().st_mtime_ns for j in stamp} == stamp, "done jobs are not redone"
@@ -175,6 +177,21 @@ def test_a_rerun_skips_finished_jobs_and_redoes_a_changed_one(first_run, capsys)
     assert is_done(out, jobs["size10"], settings_hash(jobs["size10"])) is None
     jobs["me"].target["measurements"] = SAMPLES / "measurements/ann.vit"
     assert is_done(out, jobs["me"], settings_hash(jobs["me"])) is None
+
+
+def test_a_job_larger_than_any_node_is_refused_at_once(tmp_path, local_ray, capsys):
+    manifest = _write(tmp_path / "m.json", [{"id": "a", "pattern": str(PATTERN), "base_body": str(B0),
+                                             "target_body": str(B10), "device": "cuda"}])
+    out = tmp_path / "out"
+    t0 = time.perf_counter()
+    assert main(["batch", str(manifest), "--out", str(out), "--memory-per-job", "100000"]) == 2
+    assert main(["batch", str(manifest), "--out", str(out), *SMALL]) == 2
+    assert time.perf_counter() - t0 < 30
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ": error: " in ln]
+    assert len(err) == 2 and err[-2].startswith("seamfit batch: error: --memory-per-job 100000: no Ray node has that much memory")
+    assert err[-1] == ("seamfit batch: error: jobs with device cuda need --gpus-per-job 1 of a GPU, and no Ray "
+                       "node has a GPU")
+    assert not list((out / "jobs").iterdir())
 
 
 def _alive(pid: int) -> bool:
@@ -204,7 +221,8 @@ def test_a_killed_worker_is_retried_and_its_job_finishes(tmp_path, first_run):
 
     killer = threading.Thread(target=kill_the_worker_mid_grading, daemon=True)
     killer.start()
-    code = main(["batch", str(manifest), "--out", str(out), "--retries", "1", "--cache-dir", str(first_run[2]), "-q"])
+    code = main(["batch", str(manifest), "--out", str(out), "--retries", "1", "--cache-dir", str(first_run[2]), "-q",
+                 *SMALL])
     killer.join()
     assert code == 0 and killed["attempt"] == 1
     rec = json.loads((out / "jobs/size10.json").read_text())
@@ -222,7 +240,7 @@ def test_a_stopped_batch_ends_its_jobs_cleanly_and_keeps_what_is_done(tmp_path, 
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "native/python"), *sys.path]),
                SEAMFIT_CACHE_DIR=str(first_run[2]))
     proc = subprocess.Popen([sys.executable, "-m", "seamfit", "batch", str(manifest), "--out", str(out),
-                             "--cpus", "1"], env=env, stderr=subprocess.PIPE, text=True)
+                             "--cpus", "1", *SMALL], env=env, stderr=subprocess.PIPE, text=True)
     marker = out / "running/size10.json"
     deadline = time.time() + 120
     while time.time() < deadline and not (marker.exists() and list(out.glob(".size10.seamfit-tmp-*"))):

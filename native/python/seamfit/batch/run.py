@@ -108,7 +108,7 @@ def run_batch(manifest: Path, jobs: list, out: Path, *, address: str | None, cpu
             for stale in (out / "running" / f"{job.id}.json", out / "logs" / f"{job.id}.log"):
                 stale.unlink(missing_ok=True)      # a new run: attempts counted afresh
             sweep_leftovers(out, job.id)
-    say(f"seamfit batch: {len(jobs)} jobs, {len(jobs) - len(todo)} already done (skipped), {len(todo)} to run")
+    say(f"seamfit batch: {len(jobs)} job{'s' if len(jobs) != 1 else ''}, {len(jobs) - len(todo)} already done (skipped), {len(todo)} to run")
     status.write()
     if not todo:
         return _finish(out, jobs, final, status, say)
@@ -129,10 +129,30 @@ def run_batch(manifest: Path, jobs: list, out: Path, *, address: str | None, cpu
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, handler)   # ray.init puts in its own (sys.exit): seamfit's stops the jobs
     try:
+        check_fits(ray, res, any(_device(job) == "cuda" for job, _ in todo))
         return _drive(ray, out, jobs, todo, final, status, res, env, say)
     finally:
         if started_ray:
             ray.shutdown()
+
+
+def _device(job) -> str:
+    return {**job_settings.defaults(), **job.settings}["device"]
+
+
+def check_fits(ray, res: Resources, gpu_jobs: bool) -> None:
+    """A job that asks for more than any node has would wait for ever: say so at once."""
+    nodes = [n.get("Resources", {}) for n in ray.nodes() if n.get("Alive")]
+    most = {k: max((n.get(k, 0.0) for n in nodes), default=0.0) for k in ("CPU", "GPU", "memory")}
+    if res.threads > most["CPU"]:
+        raise SeamfitError(f"--threads-per-job {res.threads}: no Ray node has that many CPUs "
+                           f"(at most {most['CPU']:g})")
+    if res.memory_gb * 1024 ** 3 > most["memory"]:
+        raise SeamfitError(f"--memory-per-job {res.memory_gb:g}: no Ray node has that much memory for tasks "
+                           f"(at most {most['memory'] / 1024 ** 3:.1f} GB); give less")
+    if gpu_jobs and res.gpus > most["GPU"]:
+        raise SeamfitError(f"jobs with device cuda need --gpus-per-job {res.gpus:g} of a GPU, and no Ray node "
+                           + ("has a GPU" if not most["GPU"] else f"has more than {most['GPU']:g}"))
 
 
 def _drive(ray, out, jobs, todo, final, status, res, env, say) -> int:
@@ -140,7 +160,7 @@ def _drive(ray, out, jobs, todo, final, status, res, env, say) -> int:
     gb = 1024 ** 3
 
     def options(job, name):
-        cuda = {**job_settings.defaults(), **job.settings}["device"] == "cuda"
+        cuda = _device(job) == "cuda"
         return task.options(num_cpus=res.threads, num_gpus=res.gpus if cuda else 0,
                             memory=int(res.memory_gb * gb), max_retries=res.retries,
                             retry_exceptions=[JobCrashed], name=name)

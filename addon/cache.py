@@ -21,7 +21,7 @@ from typing import Any, Callable
 import numpy as np
 
 # How many entries each stage keeps (bodies and SDFs are the large ones).
-_LIMITS = {"mesh": 4, "body": 6, "sdf": 6, "drape": 4, "grader": 2, "grade": 4}
+_LIMITS = {"mesh": 4, "body": 6, "sdf": 6, "drape": 4, "grader": 2, "grade": 4, "register": 2}
 
 
 def digest(*parts: Any) -> str:

@@ -219,6 +219,88 @@ def body_report(body: BodyInput) -> dict:
     return {"errors": errors, "warnings": warnings, "measurements": measurements}
 
 
+def measurement_names() -> tuple:
+    """seamfit's measurement names, in its order (seamfit.body.MEASUREMENTS)."""
+    return tuple(seamfit_module("body").MEASUREMENTS)
+
+
+def unit_factor_cm(unit: str) -> float:
+    """cm per unit of ``unit`` ("cm", "in"), as seamfit's measurement files convert them."""
+    return float(seamfit_module("body.measurement_sets").UNITS[unit])
+
+
+def load_size_chart(path: str) -> list[dict]:
+    """The bodies of a measurement file (seamfit JSON, Seamly2D .vit / .vst), each as
+    {"name", "gender", "cm"}; a file that cannot make bodies raises seamfit's one-line error."""
+    sets = seamfit_module("body").load_measurement_sets(path)
+    return [{"name": s.name, "gender": s.gender, "cm": {k: float(v) for k, v in s.cm.items()}} for s in sets]
+
+
+def make_body(cm: dict, gender: str, name: str, job):
+    """seamfit's body made to the measurements ``cm`` (any subset of measurement_names());
+    seamfit.body.MeasuredBody. Bad values raise seamfit's MeasurementError naming the field."""
+    b = seamfit_module("body")
+    job.update(stage="fitting the body model", fraction=0.1)
+    made = b.from_measurements(b.MeasurementSet(dict(cm), name=name, gender=gender), name=name)
+    job.update(stage="made", fraction=1.0)
+    return made
+
+
+def needs_registration(base: BodyInput | None, target: BodyInput) -> bool:
+    """Whether ``target`` has another mesh than ``base`` (the sample bodies' mesh when no
+    base is given): grading then registers the base mesh onto it."""
+    reg = seamfit_module("body.register")
+    if base is not None:
+        return not reg.same_topology(body_object(base), body_object(target))
+    faces = seamfit_module("body.shape_model").hm08_faces()
+    return not (len(target.triangles) == len(faces) and np.array_equal(target.triangles, faces))
+
+
+def quick_check(body: BodyInput, registering: bool) -> str:
+    """seamfit's checks before any fitting (units, up axis with the fix, facing, holes,
+    pose): the one-line reason a body is refused, or "". An open mesh is refused only when
+    it must be registered (the distance field copes with holes)."""
+    reg = seamfit_module("body.register")
+    sb = body_object(body)
+    try:
+        reg.check_registrable(sb)
+    except reg.RegistrationError as exc:
+        if not registering and str(exc).startswith(f"{sb.where}: not closed:"):
+            return ""
+        return str(exc)
+    return ""
+
+
+def _registration_key(base: BodyInput, target: BodyInput, gender: str) -> str:
+    return digest("register", base.key, target.key, gender)
+
+
+def registration_done(base: BodyInput, target: BodyInput, gender: str = "female"):
+    """The registration of ``target`` onto ``base``'s mesh if one was made, else None."""
+    done = CACHE.peek("register", _registration_key(base, target, gender))
+    return None if done is None else done[1]
+
+
+def registered_target(base: BodyInput, target: BodyInput, job=None, gender: str = "female", show_fraction=True):
+    """(seamfit Body on the base body's mesh, Registration or None): ``target`` itself when it
+    shares the base body's mesh, else the base mesh registered onto it (cached by content;
+    seamfit's checks refuse a mesh that cannot be registered before any fitting)."""
+    if not needs_registration(base, target):
+        return body_object(target), None
+
+    def tell(stage, fraction=None):
+        if job is not None:
+            job.update(stage=f"registering: {stage}", fraction=fraction if show_fraction else None)
+
+    def make():
+        body, reg = seamfit_module("body.register").target_for(body_object(base), body_object(target),
+                                                               gender=gender, progress=tell)
+        if job is not None:
+            job.check()
+        return body, reg
+    return CACHE.get("register", _registration_key(base, target, gender), make)
+
+
 def fit_ease(body: BodyInput, g: "Garment") -> dict:
     """Ease in cm (garment tape girth minus body girth) at the body's bust, waist and hip
     levels, by seamfit's fit measure; a level the garment does not cover is left out."""
@@ -500,6 +582,7 @@ class GradeOutput:
     target_name: str
     target_body: Any = None     # seamfit's Body of the target
     warnings: list = field(default_factory=list)    # for the user, e.g. a base pattern not made for the base body
+    registration: Any = None    # seamfit's Registration when the target has another mesh than the base body
 
 
 def _grade_progress(job, tracker):
@@ -607,8 +690,9 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
         fabric, sim_settings = _sim_objects(inp.sim, inp.device)
         settings = grade_settings(inp)
         tracker = seamfit_module("progress").for_grading(pattern, settings, tolerance=float(sim_settings.tolerance))
+        target, _ = registered_target(inp.base, inp.target, job, show_fraction=False)
         try:
-            res = opt.grade(pattern, body_object(inp.base), body_object(inp.target), settings,
+            res = opt.grade(pattern, body_object(inp.base), target, settings,
                             fabric=fabric, sim_settings=sim_settings, progress=_grade_progress(job, tracker))
         except SolveError:
             job.check()         # cancelled: nothing is cached
@@ -631,7 +715,7 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
         converged=bool(r["converged"]), method=str(r.get("method", inp.method)), message=str(r["message"]),
         fit={k: float(v) for k, v in ease.items() if v is not None}, report=r, result=res,
         base_name=inp.base.name, target_name=inp.target.name, target_body=body_object(inp.target),
-        warnings=_fit_check(inp, r))
+        warnings=_fit_check(inp, r), registration=registration_done(inp.base, inp.target))
 
 
 def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | None = None,

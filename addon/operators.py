@@ -184,39 +184,70 @@ def _pattern_collection(context, name: str):
 
 
 class SEAMFIT_OT_check_bodies(bpy.types.Operator):
-    """Check the base and target bodies and measure their height and girths"""
+    """Check the base and target bodies (units, up axis, facing, holes and pose first, then
+    the mesh) and measure their height and girths"""
     bl_idname = "seamfit.check_bodies"
     bl_label = "Check Bodies"
     bl_options = {"REGISTER", "UNDO"}     # the reports are stored in the scene
 
     def execute(self, context):
         s = context.scene.seamfit
+        if s.base_body is None and s.target_body is None:
+            self.report({"ERROR"}, "pick a base and a target body first")
+            return {"CANCELLED"}
         depsgraph = context.evaluated_depsgraph_get()
-        failed = False
+        try:
+            base = capture_body(s.base_body, depsgraph) if s.base_body is not None else None
+        except compute.user_errors():
+            base = None                       # reported as the base body's own problem below
+        failed, lines = False, []
         for obj, rep, role in ((s.base_body, s.base_report, "base"), (s.target_body, s.target_report, "target")):
             rep.checked = False
             if obj is None:
                 continue
-            ok, message = check_body_into(rep, obj, depsgraph)
+            ok, message = check_body_into(rep, obj, depsgraph, base if role == "target" else False)
             if not ok:
                 failed = True
                 self.report({"ERROR"}, f"{role} body {obj.name!r}: {message}")
-        if s.base_body is None and s.target_body is None:
-            self.report({"ERROR"}, "pick a base and a target body first")
+            else:
+                lines.append(f"{role} {obj.name}: {_summary(rep)}")
+        if failed:
             return {"CANCELLED"}
-        return {"CANCELLED"} if failed else {"FINISHED"}
+        self.report({"INFO"}, "Bodies checked: " + "; ".join(lines))
+        return {"FINISHED"}
 
 
-def check_body_into(rep, obj, depsgraph) -> tuple[bool, str]:
-    """Fill a body report; returns (ok, message)."""
+def _summary(rep) -> str:
+    text = f"{rep.height:.1f} cm tall"
+    if rep.registered:
+        text += (f", registered onto the base body's mesh ({rep.registration_mean_mm:.1f} mm mean, "
+                 f"{rep.registration_max_mm:.1f} mm max)")
+    elif rep.registering:
+        text += ", another mesh than the base body: registered when grading"
+    return text
+
+
+def check_body_into(rep, obj, depsgraph, base=False) -> tuple[bool, str]:
+    """Fill a body report; returns (ok, message). ``base`` is the captured base body for a
+    target (None: no base body, compared with the sample bodies' mesh), False for the base
+    itself. seamfit's checks before any fitting come first: a body in other units, lying
+    on its back (Y up, as Blender's OBJ importer lays a Z-up file down) or in another pose
+    gets the one-line reason and the fix."""
+    from . import bodies
     try:
         body = capture_body(obj, depsgraph)
-        report = compute.body_report(body)
+        registering = base is not False and compute.needs_registration(base, body)
+        refused = compute.quick_check(body, registering)
+        report = None if refused else compute.body_report(body)
     except compute.user_errors() as exc:
         rep.checked, rep.ok, rep.message, rep.key = True, False, str(exc), ""
         return False, str(exc)
     rep.checked = True
     rep.key = body.key
+    rep.registering, rep.registered = registering, False
+    if refused:
+        rep.ok, rep.message = False, refused
+        return False, refused
     rep.ok = not report["errors"]
     msgs = report["errors"] or report["warnings"]
     rep.message = "; ".join(msgs) if msgs else "valid"
@@ -225,6 +256,13 @@ def check_body_into(rep, obj, depsgraph) -> tuple[bool, str]:
     rep.bust = m.get("bust", 0.0)
     rep.waist = m.get("waist", 0.0)
     rep.hip = m.get("hip", 0.0)
+    if rep.ok and registering:
+        reg = compute.registration_done(base, body) if base else None
+        if reg is not None:
+            bodies.show_registration(rep, reg)
+        if rep.message == "valid":
+            rep.message = (f"another mesh than the base body ({len(body.vertices)} vertices): grading registers "
+                           "the base body's mesh onto it (Register Target shows how close it comes)")
     return rep.ok, rep.message
 
 

@@ -64,6 +64,102 @@ class SEAMFIT_PG_body_report(bpy.types.PropertyGroup):
     bust: FloatProperty(name="Bust (cm)")
     waist: FloatProperty(name="Waist (cm)")
     hip: FloatProperty(name="Hip (cm)")
+    registering: BoolProperty(default=False, description="The body has another mesh than the base body: grading "
+                              "registers the base body's mesh onto it")
+    registered: BoolProperty(default=False)
+    registration_mean_mm: FloatProperty(name="Registration error, mean (mm)")
+    registration_max_mm: FloatProperty(name="Registration error, max (mm)")
+
+
+# ---------------------------------------------------------------------------
+# Body from measurements: one field per measurement seamfit knows (seamfit.body.MEASUREMENTS)
+
+UNITS = {"CM": "cm", "IN": "in"}
+MEASUREMENTS = compute.measurement_names()
+
+
+def field_name(key: str) -> str:
+    return f"m_{key}"
+
+
+def cm_per_unit(units: str) -> float:
+    return compute.unit_factor_cm(UNITS[units])
+
+
+def _units_changed(self, context):
+    """Convert the fields to the new unit: the body they describe stays the same."""
+    old = self.units_shown if self.units_shown in UNITS else "CM"
+    f = cm_per_unit(old) / cm_per_unit(self.units)
+    for key in MEASUREMENTS:
+        setattr(self, field_name(key), getattr(self, field_name(key)) * f)
+    self.units_shown = self.units
+
+
+_size_items: list = []      # Blender needs the enum's strings kept alive
+
+
+def _sizes(self, context):
+    _size_items[:] = [(str(i), s.name, f"{s.name} ({s.gender})") for i, s in enumerate(self.chart_sizes)] or \
+        [("NONE", "No size chart", "Load a size chart first")]
+    return _size_items
+
+
+def _size_picked(self, context):
+    if self.size != "NONE":
+        self.apply_size(self.chart_sizes[int(self.size)])
+
+
+class SEAMFIT_PG_chart_size(bpy.types.PropertyGroup):
+    """One size of a loaded size chart (its name is the size's)."""
+    gender: StringProperty()
+    values_cm: StringProperty(description="The size's measurements (cm) as JSON")
+
+
+def _measure_annotations() -> dict:
+    fields = {field_name(k): FloatProperty(
+        name=k.replace("_", " ").capitalize(), default=0.0, min=0.0, soft_max=250.0, precision=1,
+        description=f"{k.replace('_', ' ').capitalize()} in the chosen unit; 0: not measured, the body model "
+                    "infers it") for k in MEASUREMENTS}
+    return {
+        "units": EnumProperty(name="Units", default="CM", update=_units_changed, items=[
+            ("CM", "cm", "Measurements in centimetres"), ("IN", "in", "Measurements in inches")]),
+        "units_shown": StringProperty(default="CM", options={"HIDDEN"}),
+        "gender": EnumProperty(name="Gender", default="female", items=[
+            ("female", "Female", "The female body model (prior: the size 6 sample body)"),
+            ("male", "Male", "The male body model (prior: the men's medium sample body)")]),
+        "body_name": StringProperty(name="Name", default="body", description="Name of the body object to add"),
+        "chart": StringProperty(name="Size chart", description="The size chart the sizes come from"),
+        "chart_sizes": CollectionProperty(type=SEAMFIT_PG_chart_size),
+        "size": EnumProperty(name="Size", items=_sizes, update=_size_picked,
+                             description="Fill the fields with a size of the chart"),
+        **fields,
+    }
+
+
+def _apply_size(self, size) -> None:
+    """Fill the fields with a size of the chart (in the chosen unit); measurements the size
+    does not give are cleared (the model infers them)."""
+    import json
+    cm = json.loads(size.values_cm)
+    f = cm_per_unit(self.units)
+    for key in MEASUREMENTS:
+        setattr(self, field_name(key), cm.get(key, 0.0) / f)
+    self.gender = size.gender if size.gender in ("female", "male") else "female"
+    self.body_name = size.name
+
+
+def _requested_cm(self) -> dict:
+    """The measurements given (cm): every field above 0."""
+    f = cm_per_unit(self.units)
+    return {k: _exact(getattr(self, field_name(k))) * f for k in MEASUREMENTS if getattr(self, field_name(k)) > 0}
+
+
+SEAMFIT_PG_measure = type("SEAMFIT_PG_measure", (bpy.types.PropertyGroup,), {
+    "__doc__": "The Body from measurements panel's fields",
+    "__annotations__": _measure_annotations(),
+    "apply_size": _apply_size,
+    "requested_cm": _requested_cm,
+})
 
 
 def _is_pattern(self, coll):
@@ -126,9 +222,11 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     base_body: PointerProperty(type=bpy.types.Object, poll=_is_mesh, name="Base body",
                                description="The body the base pattern was made for")
     target_body: PointerProperty(type=bpy.types.Object, poll=_is_mesh, name="Target body",
-                                 description="The body to grade the pattern to")
+                                 description="The body to grade the pattern to: any mesh object (one of another mesh "
+                                             "than the base body, a scan or a character, is registered first)")
     base_report: PointerProperty(type=SEAMFIT_PG_body_report)
     target_report: PointerProperty(type=SEAMFIT_PG_body_report)
+    measure: PointerProperty(type=SEAMFIT_PG_measure)
 
     strength_preset: EnumProperty(name="Preset", items=presets.preset_items(), default=_DEFAULT_PRESET,
                                   update=_apply_preset,
@@ -200,7 +298,7 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
 
 
 CLASSES = (SEAMFIT_PG_panel_info, SEAMFIT_PG_stitch_info, SEAMFIT_PG_fit, SEAMFIT_PG_message, SEAMFIT_PG_pattern_info,
-           SEAMFIT_PG_body_report, SEAMFIT_PG_settings)
+           SEAMFIT_PG_body_report, SEAMFIT_PG_chart_size, SEAMFIT_PG_measure, SEAMFIT_PG_settings)
 
 
 def register():

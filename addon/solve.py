@@ -125,10 +125,16 @@ def adjust_task(context) -> Task:
                                          edge_length_cm=inputs.edge_length_cm)
         coll, reused = _place(ctx, slot, key, f"{inputs.target.name} {inputs.pattern_name}", build)
         _last["adjust"] = out
+        reg = out.registration
+        if reg is not None:
+            from .bodies import show_registration
+            show_registration(ctx.scene.seamfit.target_report, reg)
         state = "converged" if out.converged else f"stopped: {out.message}"
         return (f"Graded {inputs.pattern_name} to {inputs.target.name} with {methods.label(out.method)} "
                 f"in {out.iterations} iterations ({state}, objective {out.objective:.4g}); "
                 f"result in {coll.name!r}" + (" (unchanged)" if reused else "")
+                + (f"; the target was registered onto the base body's mesh ({reg.mean_mm:.1f} mm mean, "
+                   f"{reg.max_mm:.1f} mm max from its surface)" if reg is not None else "")
                 + "".join(f"; warning: {w}" for w in out.warnings))
     return Task(f"grade {inputs.pattern_name} to {inputs.target.name}",
                 lambda job: compute.run_grade(inputs, job), apply)
@@ -190,7 +196,7 @@ def _redraw_ui(context) -> None:
                 area.tag_redraw()
 
 
-class _JobOperator:
+class JobOperator:
     bl_options = {"UNDO"}   # one undo step when the result lands; no redo panel (it would recompute)
 
     def make_task(self, context) -> Task:
@@ -252,7 +258,7 @@ class _JobOperator:
         return self._report_end(*runner.finish(context))
 
 
-class SEAMFIT_OT_build_mesh(_JobOperator, bpy.types.Operator):
+class SEAMFIT_OT_build_mesh(JobOperator, bpy.types.Operator):
     """Mesh the pattern at the mesh resolution: panels as faces, seams as loose sewing edges
     (ready for Blender's cloth simulation with sewing)"""
     bl_idname = "seamfit.build_mesh"
@@ -262,7 +268,7 @@ class SEAMFIT_OT_build_mesh(_JobOperator, bpy.types.Operator):
         return mesh_task(context)
 
 
-class SEAMFIT_OT_drape(_JobOperator, bpy.types.Operator):
+class SEAMFIT_OT_drape(JobOperator, bpy.types.Operator):
     """Drape the base pattern on the base body (result: a new mesh coloured by stretch)"""
     bl_idname = "seamfit.drape"
     bl_label = "Drape"
@@ -271,7 +277,7 @@ class SEAMFIT_OT_drape(_JobOperator, bpy.types.Operator):
         return drape_task(context)
 
 
-class SEAMFIT_OT_adjust(_JobOperator, bpy.types.Operator):
+class SEAMFIT_OT_adjust(JobOperator, bpy.types.Operator):
     """Grade the base pattern to the target body (result: new panel curves in a new collection)"""
     bl_idname = "seamfit.adjust"
     bl_label = "Adjust Pattern"

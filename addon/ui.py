@@ -71,6 +71,9 @@ def _draw_body(layout, s, prop, rep):
     col = box.column(align=True)
     col.label(text=f"Height {rep.height:.1f} cm", icon="CHECKMARK")
     col.label(text=f"Bust {rep.bust:.1f}   Waist {rep.waist:.1f}   Hip {rep.hip:.1f} cm")
+    if rep.registered:
+        col.label(text=f"Registered: {rep.registration_mean_mm:.1f} mm mean, {rep.registration_max_mm:.1f} mm max "
+                       "from its surface", icon="MOD_SHRINKWRAP")
     if rep.message and rep.message != "valid":
         col.label(text=rep.message, icon="INFO")
 
@@ -82,7 +85,49 @@ class SEAMFIT_PT_bodies(_SeamfitPanel, bpy.types.Panel):
         s = context.scene.seamfit
         _draw_body(self.layout, s, "base_body", s.base_report)
         _draw_body(self.layout, s, "target_body", s.target_report)
-        self.layout.operator("seamfit.check_bodies", icon="VIEWZOOM")
+        row = self.layout.row(align=True)
+        row.operator("seamfit.check_bodies", icon="VIEWZOOM")
+        if s.target_report.checked and s.target_report.registering:
+            row.operator("seamfit.register_target", icon="MOD_SHRINKWRAP")
+
+
+class SEAMFIT_PT_measure(_SeamfitPanel, bpy.types.Panel):
+    bl_label = "Body from Measurements"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        from . import bodies, props
+        m = context.scene.seamfit.measure
+        layout = self.layout
+        layout.row().prop(m, "units", expand=True)
+        row = layout.row(align=True)
+        row.operator("seamfit.load_size_chart", text="Size Chart", icon="FILE")
+        row.prop(m, "size", text="")
+        if m.chart:
+            layout.label(text=bpy.path.basename(m.chart), icon="PRESET")
+        layout.prop(m, "gender")
+        layout.prop(m, "body_name")
+        col = layout.column(align=True)
+        for key in props.MEASUREMENTS:
+            col.prop(m, props.field_name(key))
+        layout.label(text=f"In {props.UNITS[m.units]}; 0: not measured (inferred)", icon="INFO")
+        layout.operator("seamfit.body_from_measurements", icon="OUTLINER_OB_ARMATURE")
+        obj = context.active_object
+        if bodies.is_made_body(obj):
+            _draw_made_body(layout.box(), obj, props.cm_per_unit(m.units), props.UNITS[m.units])
+
+
+def _draw_made_body(box, obj, per_unit: float, unit: str):
+    """A made body's measurements: requested and achieved (inferred ones marked)."""
+    from . import bodies
+    box.label(text=f"{obj.name}: requested / achieved ({unit})", icon="OBJECT_DATA")
+    requested, achieved = obj[bodies.REQUESTED], obj[bodies.ACHIEVED]
+    col = box.column(align=True)
+    for key in achieved.keys():
+        want = f"{requested[key] / per_unit:.1f}" if key in requested else "inferred"
+        col.label(text=f"{key.replace('_', ' ').capitalize()}: {want} / {achieved[key] / per_unit:.1f}")
+    if obj.get(bodies.PROBLEMS):
+        box.label(text=obj[bodies.PROBLEMS], icon="ERROR")
 
 
 class SEAMFIT_PT_costs(_SeamfitPanel, bpy.types.Panel):
@@ -140,7 +185,8 @@ class SEAMFIT_PT_cache(_SeamfitPanel, bpy.types.Panel):
         counts = CACHE.counts()
         col = self.layout.column(align=True)
         names = {"mesh": "Sewn meshes", "body": "Bodies", "sdf": "Distance fields",
-                 "drape": "Base drapes", "grader": "Factorizations", "grade": "Gradings"}
+                 "drape": "Base drapes", "grader": "Factorizations", "grade": "Gradings",
+                 "register": "Registered targets"}
         for key, label in names.items():
             col.label(text=f"{label}: {counts.get(key, 0)}  (reused {CACHE.hits.get(key, 0)}×)")
         from . import cache, prefs
@@ -218,7 +264,7 @@ def _draw_results(layout, s):
             box.label(text="   ".join(parts) + " cm")
 
 
-CLASSES = (SEAMFIT_UL_panels, SEAMFIT_UL_stitches, SEAMFIT_PT_patterns, SEAMFIT_PT_bodies,
+CLASSES = (SEAMFIT_UL_panels, SEAMFIT_UL_stitches, SEAMFIT_PT_patterns, SEAMFIT_PT_bodies, SEAMFIT_PT_measure,
            SEAMFIT_PT_costs, SEAMFIT_PT_simulation, SEAMFIT_PT_cache, SEAMFIT_PT_run, SEAMFIT_PT_stretch)
 
 

@@ -53,7 +53,7 @@ class _OpProps:
 
 def _draw_all(context):
     log = []
-    for name in ("SEAMFIT_PT_patterns", "SEAMFIT_PT_bodies", "SEAMFIT_PT_costs", "SEAMFIT_PT_simulation",
+    for name in ("SEAMFIT_PT_patterns", "SEAMFIT_PT_bodies", "SEAMFIT_PT_measure", "SEAMFIT_PT_costs", "SEAMFIT_PT_simulation",
                  "SEAMFIT_PT_cache", "SEAMFIT_PT_run"):
         panel = getattr(bpy.types, name)
         holder = type("P", (), {"layout": Recorder(log)})()
@@ -67,7 +67,7 @@ def test_panels_draw_empty_scene(scene):
     assert any("No pattern" in t for t in labels)
     ops = {e[1] for e in log if e[0] == "operator"}
     assert {"seamfit.import_pattern", "seamfit.check_bodies", "seamfit.drape", "seamfit.adjust",
-            "seamfit.clear_cache"} <= ops
+            "seamfit.clear_cache", "seamfit.load_size_chart", "seamfit.body_from_measurements"} <= ops
 
 
 def test_panels_draw_pattern_and_bodies(scene):

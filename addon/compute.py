@@ -220,8 +220,12 @@ def body_report(body: BodyInput) -> dict:
 
 
 def measurement_names() -> tuple:
-    """seamfit's measurement names, in its order (seamfit.body.MEASUREMENTS)."""
-    return tuple(seamfit_module("body").MEASUREMENTS)
+    """seamfit's measurement names, in its order (seamfit.body.MEASUREMENTS); none when
+    seamfit cannot be imported (the panels then say to reinstall it)."""
+    try:
+        return tuple(seamfit_module("body").MEASUREMENTS)
+    except AddonError:
+        return ()
 
 
 def unit_factor_cm(unit: str) -> float:

@@ -16,10 +16,11 @@ def test_zip_installs_and_enables(installed):
     assert MODULE in bpy.context.preferences.addons
     pkg = addon()
     assert Path(pkg.__file__).parent.name == "seamfit"
-    for op in ("import_pattern", "export_pattern", "drape", "adjust", "check_bodies", "cancel"):
+    for op in ("import_pattern", "export_pattern", "drape", "adjust", "check_bodies", "cancel", "load_size_chart",
+               "body_from_measurements", "register_target"):
         assert hasattr(bpy.ops.seamfit, op), op
         assert getattr(bpy.ops.seamfit, op).get_rna_type() is not None
-    for cls in ("SEAMFIT_PT_patterns", "SEAMFIT_PT_bodies", "SEAMFIT_PT_costs", "SEAMFIT_PT_run"):
+    for cls in ("SEAMFIT_PT_patterns", "SEAMFIT_PT_bodies", "SEAMFIT_PT_measure", "SEAMFIT_PT_costs", "SEAMFIT_PT_run"):
         assert hasattr(bpy.types, cls), cls
     assert hasattr(bpy.types.Scene, "seamfit")
 
@@ -58,7 +59,8 @@ def test_user_scene_props_defaults(scene):
 
 def test_operators_that_change_the_scene_are_undoable(installed):
     for cls in ("SEAMFIT_OT_import_pattern", "SEAMFIT_OT_build_mesh", "SEAMFIT_OT_drape", "SEAMFIT_OT_adjust",
-                "SEAMFIT_OT_check_bodies", "SEAMFIT_OT_apply_edits"):
+                "SEAMFIT_OT_check_bodies", "SEAMFIT_OT_apply_edits", "SEAMFIT_OT_body_from_measurements",
+                "SEAMFIT_OT_register_target", "SEAMFIT_OT_load_size_chart"):
         assert "UNDO" in getattr(bpy.types, cls).bl_options, cls
     # Export writes files only; drape and adjust have no redo panel (it would recompute).
     assert "UNDO" not in bpy.types.SEAMFIT_OT_export_pattern.bl_options

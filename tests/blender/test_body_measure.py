@@ -79,6 +79,12 @@ def test_inches_and_size_chart(scene):
     measured = _measured(obj)
     for key, value in want.items():
         assert measured[key] == pytest.approx(value, abs=0.5), key
+    # seamfit's JSON size chart (the sample bodies' measurements.json) gives presets too.
+    assert bpy.ops.seamfit.load_size_chart(filepath=str(SAMPLES / "bodies" / "measurements.json")) == {"FINISHED"}
+    names = [s.name for s in m.chart_sizes]
+    assert names[0] == "women_size02" and "men_medium" in names and m.body_name == "women_size02"
+    m.size = str(names.index("men_medium"))
+    assert m.gender == "male" and m.m_height == pytest.approx(178.0 / 2.54, rel=1e-6)
 
 
 def test_bad_measurement_is_one_line(scene):

@@ -6,7 +6,7 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import BODY_BASE, SAMPLES, addon, import_obj, object_fingerprint
+from helpers import BODY_BASE, GRADE_EDGE_CM, GRADE_SDF_M, PENCIL, SAMPLES, addon, import_obj, object_fingerprint
 
 CHART = SAMPLES / "measurements" / "size_chart.vst"
 
@@ -132,3 +132,15 @@ def test_decimated_target_is_registered(scene):
     # Check Bodies again keeps showing it (the registration is kept for Adjust).
     assert bpy.ops.seamfit.check_bodies() == {"FINISHED"}
     assert rep.registered and rep.registration_mean_mm < 5.0
+    # Adjust grades to the registered mesh (reused, not made again).
+    bpy.ops.seamfit.import_pattern(filepath=str(PENCIL))
+    s.edge_length_cm, s.sdf_spacing_mm, s.iterations, s.exact_every = GRADE_EDGE_CM, 1000 * GRADE_SDF_M, 4, 4
+    cache = addon().cache.CACHE
+    made = cache.misses["register"]
+    assert bpy.ops.seamfit.adjust() == {"FINISHED"}
+    assert cache.misses["register"] == made and cache.hits["register"] >= 1
+    out = addon().solve.last_result("adjust")
+    assert out.registration is not None and out.target_name == "scan"
+    assert out.result.mesh.n_vertices == len(out.garment.x)
+    assert bpy.data.collections.get("scan gc_pencil_skirt size06") is not None
+    assert object_fingerprint(target) == before

@@ -132,6 +132,11 @@ def test_decimated_target_is_registered(scene):
     # Check Bodies again keeps showing it (the registration is kept for Adjust).
     assert bpy.ops.seamfit.check_bodies() == {"FINISHED"}
     assert rep.registered and rep.registration_mean_mm < 5.0
+    from test_ui import Recorder
+    log = []
+    bpy.types.SEAMFIT_PT_bodies.draw(type("P", (), {"layout": Recorder(log)})(), bpy.context)
+    assert ("operator", "seamfit.register_target") in log
+    assert any(e[0] == "label" and e[1].startswith("Registered: ") and "mm mean" in e[1] for e in log)
     # Adjust grades to the registered mesh (reused, not made again).
     bpy.ops.seamfit.import_pattern(filepath=str(PENCIL))
     s.edge_length_cm, s.sdf_spacing_mm, s.iterations, s.exact_every = GRADE_EDGE_CM, 1000 * GRADE_SDF_M, 4, 4

@@ -102,11 +102,18 @@ def test_closest_points_are_exact():
     d, tri, Q, bary = SurfaceIndex(copy.vertices, copy.faces).query(P)
     F = copy.faces.astype(np.int64)
     A, B, C = copy.vertices[F[:, 0]], copy.vertices[F[:, 1]], copy.vertices[F[:, 2]]
-    for i in range(len(P)):
-        Qi, _ = closest_on_triangles(np.repeat(P[i:i + 1], len(F), 0), A, B, C)
-        assert d[i] == pytest.approx(np.linalg.norm(Qi - P[i], axis=1).min(), abs=1e-12)
+    exact = np.array([np.linalg.norm(closest_on_triangles(np.repeat(P[i:i + 1], len(F), 0), A, B, C)[0] - P[i],
+                                     axis=1).min() for i in range(len(P))])
+    assert np.allclose(d, exact, rtol=0.0, atol=1e-12)
     assert np.allclose(np.einsum("ij,ijk->ik", bary, copy.vertices[F[tri]]), Q)
     assert np.allclose(np.linalg.norm(P - Q, axis=1), d)
+    # within a bound: exact inside it, and beyond it exactly where the true distance is
+    near, _, Q_near, _ = SurfaceIndex(copy.vertices, copy.faces).query(P, within=0.01)
+    inside = exact <= 0.01
+    assert 0 < inside.sum() < len(P)
+    assert np.allclose(near[inside], exact[inside], rtol=0.0, atol=1e-12)
+    assert np.all(near[~inside] > 0.01) and np.all(near >= exact - 1e-12)
+    assert np.allclose(np.linalg.norm(P - Q_near, axis=1), near)
 
 
 # ----------------------------------------------------------------------------- meshes that cannot be registered

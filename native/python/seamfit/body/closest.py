@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["SurfaceIndex", "closest_on_triangles"]
+__all__ = ["SurfaceIndex", "area_samples", "closest_on_triangles", "subdivision_centroids"]
 
 
 def closest_on_triangles(P, A, B, C) -> tuple[np.ndarray, np.ndarray]:
@@ -60,6 +60,36 @@ def closest_on_triangles(P, A, B, C) -> tuple[np.ndarray, np.ndarray]:
     return Q, bary
 
 
+def subdivision_centroids(T: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The centroids of triangle t's n[t] x n[t] similar sub-triangles (T: (m, 3, 3)),
+    and the triangle of each."""
+    pts, tri = [], []
+    for m in np.unique(n):
+        sel = np.flatnonzero(n == m)
+        i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
+        up = i + j <= m - 1                       # sub-triangles pointing like the triangle
+        down = i + j <= m - 2                     # and those pointing the other way
+        w = np.concatenate([
+            np.stack([m - i[up] - j[up] - 2 / 3, i[up] + 1 / 3, j[up] + 1 / 3], axis=1),
+            np.stack([m - i[down] - j[down] - 4 / 3, i[down] + 2 / 3, j[down] + 2 / 3], axis=1)]) / m
+        pts.append(np.einsum("sk,tkd->tsd", w, T[sel]).reshape(-1, 3))
+        tri.append(np.repeat(sel, len(w)))
+    return np.concatenate(pts), np.concatenate(tri)
+
+
+def area_samples(vertices, faces, spacing: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points spread over the surface by area, about one per spacing^2 (at most one per
+    spacing^2 / 2): each triangle cut into sub-triangles of at most that area, whatever
+    its shape (a sliver gets few). Returns the points, their triangles and the area each
+    stands for."""
+    V = np.asarray(vertices, dtype=np.float64)
+    T = V[np.asarray(faces, dtype=np.int64)]
+    area = 0.5 * np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
+    n = np.maximum(1, np.ceil(np.sqrt(2.0 * area) / spacing)).astype(np.int64)
+    P, tri = subdivision_centroids(T, n)
+    return P, tri, area[tri] / n[tri] ** 2
+
+
 class SurfaceIndex:
     """Closest-point queries on one triangle mesh (vertices (n, 3), faces (m, 3))."""
 
@@ -76,24 +106,16 @@ class SurfaceIndex:
         h = float(spacing or 0.5 * np.median(edges))
         n = np.maximum(1, np.ceil(edges.max(axis=1) / h)).astype(np.int64)
         self.radius = float((reach / n).max())
-        pts, tri = [], []
-        for m in np.unique(n):
-            sel = np.flatnonzero(n == m)
-            i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
-            up = i + j <= m - 1                       # sub-triangles pointing like the triangle
-            down = i + j <= m - 2                     # and those pointing the other way
-            w = np.concatenate([
-                np.stack([m - i[up] - j[up] - 2 / 3, i[up] + 1 / 3, j[up] + 1 / 3], axis=1),
-                np.stack([m - i[down] - j[down] - 4 / 3, i[down] + 2 / 3, j[down] + 2 / 3], axis=1)]) / m
-            pts.append(np.einsum("sk,tkd->tsd", w, T[sel]).reshape(-1, 3))
-            tri.append(np.repeat(sel, len(w)))
-        self.samples = np.concatenate(pts)
-        self.sample_tri = np.concatenate(tri)
+        self.samples, self.sample_tri = subdivision_centroids(T, n)
         self.tree = cKDTree(self.samples)
         self.k = min(k, len(self.samples))
 
-    def query(self, P) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Per point: distance, closest triangle, closest point and its barycentric coordinates."""
+    def query(self, P, within: float = np.inf) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per point: distance, closest triangle, closest point and its barycentric coordinates.
+        With ``within``, a point farther than that from the surface is only known to be: it
+        gets some triangle's distance (over ``within``) and point, not the closest one's.
+        Fits that drop far matches need no more, and far points (arms in another pose) would
+        otherwise search thousands of samples."""
         P = np.asarray(P, dtype=np.float64).reshape(-1, 3)
         n = len(P)
         best_d = np.full(n, np.inf)
@@ -102,7 +124,7 @@ class SurfaceIndex:
         best_b = np.zeros((n, 3))
         todo, k = np.arange(n), self.k
         while todo.size:
-            dk, cand = self.tree.query(P[todo], k=k)
+            dk, cand = self.tree.query(P[todo], k=k, workers=-1)
             dk, cand = dk.reshape(len(todo), k), self.sample_tri[cand.reshape(len(todo), k)]
             # every (point, triangle) pair once
             cand = np.sort(cand, axis=1)
@@ -121,7 +143,7 @@ class SurfaceIndex:
             best_d[r], best_t[r], best_q[r], best_b[r] = d[head], tris[head], Q[head], bary[head]
             if k >= len(self.samples):
                 break
-            # Exact once no unseen triangle can be nearer (module docstring).
-            todo = todo[dk[:, -1] < best_d[todo] + self.radius]
+            # Exact once no unseen triangle can be nearer (module docstring), or than ``within``.
+            todo = todo[dk[:, -1] < np.minimum(best_d[todo], within) + self.radius]
             k = min(4 * k, len(self.samples))
         return best_d, best_t, best_q, best_b

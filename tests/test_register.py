@@ -202,6 +202,20 @@ def test_arms_raised_a_little_are_another_pose_before_the_surface_fit(tmp_path, 
     assert_one_line_error(code, err, str(path), "another pose", "cm from the template", "A-pose")
 
 
+def test_arms_lowered_are_another_pose_before_any_fitting(tmp_path, capsys, sample, monkeypatch):
+    import seamfit.body.register as register
+
+    def never(*args, **kwargs):
+        raise AssertionError("the fitting ran")
+
+    monkeypatch.setattr(register, "_model_fit", never)
+    path = save_body(Body(_raise_arms(sample.vertices, -30.0), sample.faces), tmp_path / "arms_down.obj")
+    code, _, err = cli(capsys, "body", "--register", path, "--out", tmp_path / "b.obj")
+    assert_one_line_error(code, err, str(path), "another pose", "arms lowered", "A-pose",
+                          "arms hanging about 40 degrees")
+    assert not (tmp_path / "b.obj").exists()
+
+
 def test_the_sample_bodies_pass_the_checks():
     for path in sorted(BODIES.glob("*.obj")):
         check_registrable(load_body(path))
@@ -217,10 +231,47 @@ def test_grade_registers_a_target_of_another_mesh(tmp_path, capsys):
                        "--base-body", BASE, "--target-body", target, "--out", out,
                        "--edge-length", "5", "--sdf-spacing", "0.01", "--max-iterations", "2", "--no-picture")
     assert code == 0, err
-    assert "registering the base body's mesh onto it" in err and "mm mean" in err
+    line = next(line for line in err.splitlines() if "registered:" in line)
+    assert "mm mean" in line and "mm max" in line and "registering the base body's mesh onto it" in err
     report = json.loads((out / "report.json").read_text())
     reg = report["registration"]
-    assert reg["scan"] == str(target) and reg["error_mm"]["mean"] < 5.0
+    assert reg["scan"] == str(target) and 0.0 < reg["error_mm"]["mean"] < 5.0
+    assert reg["error_mm"]["mean"] <= reg["error_mm"]["max"] < 30.0
+    assert f"{reg['error_mm']['mean']:.1f} mm mean, {reg['error_mm']['max']:.1f} mm max" in line
     assert reg["n_vertices"] == load_body(BASE).n_vertices
     assert report["inputs"]["target_body"] == str(target)
     assert (out / "pattern.json").is_file() and (out / "garment.obj").is_file()
+
+
+def _lying(V):
+    return np.c_[V[:, 0], -V[:, 2], V[:, 1]]          # as Blender's OBJ importer lays a Z-up file down
+
+
+@pytest.mark.parametrize("case, words", [
+    ("the base body's mesh, Y-up", ("wrong axes", "-Y-up", "rotate it -90 degrees about X", "Blender")),
+    ("another mesh, Y-up", ("wrong axes", "-Y-up", "rotate it -90 degrees about X")),
+    ("another mesh, in millimetres", ("millimetres", "scale it by 0.001")),
+    ("another mesh, in centimetres", ("centimetres", "scale it by 0.01")),
+    ("another mesh, arms lowered", ("another pose", "arms lowered", "A-pose")),
+])
+def test_grade_refuses_a_target_it_cannot_use_before_any_work(tmp_path, capsys, monkeypatch, case, words):
+    """One line naming the file, the reason and the fix, before any registration, SDF or drape."""
+    import seamfit.body.register as register
+    monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(register, "register_body", lambda *a, **k: pytest.fail("registration started"))
+    body = load_body(BODIES / "women_size10.obj")
+    V = body.vertices
+    V = {"Y-up": _lying(V), "millimetres": 1000.0 * V, "centimetres": 100.0 * V,
+         "arms lowered": _raise_arms(V, -30.0)}[case.split(", ")[1].replace("in ", "")]
+    faces = body.faces if case.startswith("the base") else body.faces[::-1].copy()   # faces reordered: another mesh
+    target = save_body(Body(V, faces), tmp_path / "target.obj")
+    code, _, err = cli(capsys, "grade", ROOT / "patterns/gc_pencil_skirt/size06/pattern.json", "--base-body", BASE,
+                       "--target-body", target, "--out", tmp_path / "out", "--no-picture")
+    assert code == 2, err
+    assert "Traceback" not in err
+    errors = [line for line in err.splitlines() if line.startswith("seamfit grade: error: ")]
+    assert len(errors) == 1 and str(target) in errors[0], err
+    assert all(line.startswith("seamfit grade: ") for line in err.splitlines() if line.strip()), err
+    for w in words:
+        assert w in errors[0], (w, errors[0])
+    assert not (tmp_path / "cache").exists() and not (tmp_path / "out").exists()

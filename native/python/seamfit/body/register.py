@@ -33,7 +33,8 @@ import numpy as np
 from ..errors import BodyError
 from .io import Body
 
-__all__ = ["Registration", "RegistrationError", "check_registrable", "register_body", "same_topology"]
+__all__ = ["Registration", "RegistrationError", "check_frame", "check_registrable", "register_body",
+           "same_topology"]
 
 # The non-rigid fit's stiffness schedule, one closest-point round each: bi-Laplacian
 # weights per vertex area (the template's mean vertex area is the unit, so the schedule
@@ -192,32 +193,17 @@ def check_registrable(scan: Body):
     from .validate import validate_body
     where = scan.where
     rep = validate_body(scan)
-    extent = np.ptp(scan.vertices[np.unique(scan.faces)], axis=0) if scan.n_faces else np.zeros(3)
-    long_axis = int(np.argmax(extent))
-    tall = float(extent[long_axis])
     for e in rep.errors:
-        if "units tall" not in e:            # units are told below, with the scale that fixes them
+        if "units tall" not in e:            # units are told by check_frame, with the scale that fixes them
             raise RegistrationError(e)
-    if not 0.3 <= tall <= 3.0:
-        for unit, per_m, scale in _UNITS:
-            if 1.2 * per_m <= tall <= 2.2 * per_m:
-                raise RegistrationError(f"{where}: wrong units: the body is {tall:.4g} units tall, which looks like "
-                                        f"{unit}; seamfit needs metres: scale it by {scale:g}")
-        raise RegistrationError(f"{where}: wrong units: the body is {tall:.4g} units tall; seamfit needs a "
-                                "standing body in metres (0.3 to 3 m tall)")
-    if long_axis != 2:
-        raise RegistrationError(f"{where}: wrong axes: " + _up_fix(scan, long_axis))
+    check_frame(scan)
     if rep.stats.get("boundary_edges", 0):
         raise RegistrationError(f"{where}: not closed: {rep.stats['boundary_edges']} boundary edges around "
                                 f"{_holes(scan)} hole(s) (e.g. {_hole_where(scan)}); registration needs a closed "
                                 "surface: fill the holes (in Blender: Select > All by Trait > Non Manifold, "
                                 "then Face > Fill)")
-    facing = _facing(scan)
-    if facing != "-Y":
-        turn = {"+Y": "180", "+X": "-90", "-X": "+90"}[facing]
-        raise RegistrationError(f"{where}: wrong axes: the body faces {facing} (its toes point that way); seamfit "
-                                f"needs it facing -Y: rotate it {turn} degrees about Z")
-    width, depth = extent[0] / tall, extent[1] / tall
+    extent = np.ptp(scan.vertices[np.unique(scan.faces)], axis=0)
+    width, depth = extent[0] / extent[2], extent[1] / extent[2]
     if not (WIDTH_RANGE[0] <= width <= WIDTH_RANGE[1] and DEPTH_RANGE[0] <= depth <= DEPTH_RANGE[1]):
         what = ("arms raised" if width > WIDTH_RANGE[1] else "arms lowered" if width < WIDTH_RANGE[0]
                 else "bent or leaning")
@@ -226,6 +212,31 @@ def check_registrable(scan: Body):
                                 f"A-pose ({WIDTH_RANGE[0]}-{WIDTH_RANGE[1]} wide, {DEPTH_RANGE[0]}-{DEPTH_RANGE[1]} "
                                 "deep): arms hanging about 40 degrees from the body, legs slightly apart")
     return rep
+
+
+def check_frame(body: Body) -> None:
+    """Units and axes: a body in other units, lying down (a Y-up body as Blender's OBJ
+    importer leaves a Z-up file) or facing another way raises :class:`RegistrationError`
+    naming the fix. A target of the base body's mesh needs no registration, but no less
+    these: grade checks it so before any work."""
+    where = body.where
+    extent = np.ptp(body.vertices[np.unique(body.faces)], axis=0) if body.n_faces else np.zeros(3)
+    long_axis = int(np.argmax(extent))
+    tall = float(extent[long_axis])
+    if not 0.3 <= tall <= 3.0:
+        for unit, per_m, scale in _UNITS:
+            if 1.2 * per_m <= tall <= 2.2 * per_m:
+                raise RegistrationError(f"{where}: wrong units: the body is {tall:.4g} units tall, which looks like "
+                                        f"{unit}; seamfit needs metres: scale it by {scale:g}")
+        raise RegistrationError(f"{where}: wrong units: the body is {tall:.4g} units tall; seamfit needs a "
+                                "standing body in metres (0.3 to 3 m tall)")
+    if long_axis != 2:
+        raise RegistrationError(f"{where}: wrong axes: " + _up_fix(body, long_axis))
+    facing = _facing(body)
+    if facing != "-Y":
+        turn = {"+Y": "180", "+X": "-90", "-X": "+90"}[facing]
+        raise RegistrationError(f"{where}: wrong axes: the body faces {facing} (its toes point that way); seamfit "
+                                f"needs it facing -Y: rotate it {turn} degrees about Z")
 
 
 def _up_fix(scan: Body, axis: int) -> str:

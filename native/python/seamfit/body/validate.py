@@ -95,7 +95,8 @@ def validate_body(body: Body) -> BodyReport:
         rep.warnings.append(f"{where}: {int(nv - used.sum())} vertices are used by no face (e.g. vertex "
                             f"{_few(np.flatnonzero(~used))}); they are ignored")
     if height > MAX_HEIGHT_M or height < MIN_HEIGHT_M:
-        guess = " (looks like millimetres)" if height > 300 else " (looks like centimetres)" if height > 30 else ""
+        guess = (" (looks like millimetres: scale it by 0.001)" if height > 300 else
+                 " (looks like centimetres: scale it by 0.01)" if height > 30 else "")
         rep.errors.append(f"{where}: the body is {height:.4g} units tall along Z; seamfit needs metres with Z up "
                           f"and a height between {MIN_HEIGHT_M} and {MAX_HEIGHT_M} m{guess}")
     if int(np.argmax(ext)) != 2 and ext[2] > 0:

@@ -236,8 +236,9 @@ def _strength_overrides(args) -> dict:
 def _registered_target(args, base_body, target_body, *, command: str = "grade"):
     """The target on the base body's mesh: itself when it shares that mesh, else registered
     onto it (seamfit.body.register; its checks fail at once, before any fitting)."""
-    from ..body.register import check_registrable, same_topology, target_for
+    from ..body.register import check_frame, check_registrable, same_topology, target_for
     if same_topology(base_body, target_body):
+        check_frame(target_body)            # not registered, but a body lying down (Y-up) is refused now
         return target_body, None
     check_registrable(target_body)
     if not args.quiet:

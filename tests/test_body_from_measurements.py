@@ -261,3 +261,22 @@ def test_parameters_round_trip_a_modifier_with_both_targets_on():
     s = par.shape(x)
     assert isinstance(s.local[m], tuple)
     assert np.allclose(par.vector(s), x)
+
+
+@pytest.mark.parametrize("gender", ["female", "male"])
+def test_parameters_read_back_every_fitted_shape(gender):
+    """vector() is shape()'s inverse for any point of the box, and a shape fitted with some
+    measurements reads into the parameters of all of them as the same body (registration
+    starts its surface fit so from the measurements' fit)."""
+    from seamfit.body.made_to_measure import _Parameters
+    rng = np.random.default_rng(3)
+    every = _Parameters(gender, MEASUREMENTS)
+    for keys in (MEASUREMENTS, ["height", "bust", "hip"], ["neck", "waist"], []):
+        par = _Parameters(gender, keys)
+        for x in (par.lo, par.hi, par.prior, rng.uniform(par.lo, par.hi)):
+            shape = par.shape(x)                              # pairs where both targets are on
+            assert np.allclose(par.vector(shape), x)
+            assert np.allclose(shape_vertices(every.shape(every.vector(shape))), shape_vertices(shape))
+    pair = every.shape(every.prior)
+    pair.local["waist"] = np.array([0.25, 0.5])               # a pair as an array
+    assert np.allclose(every.vector(pair)[[every.names.index("waist+"), every.names.index("waist-")]], [0.25, 0.5])

@@ -29,7 +29,7 @@ from ..errors import SeamfitError
 from .io import Body
 from .measure import MEASUREMENTS, body_measurements
 from .measurement_sets import MeasurementSet, check_measurements
-from .shape_model import LOCAL_MODIFIERS, ShapeParameters, hm08_faces, hm08_landmarks, shape_vertices
+from .shape_model import LOCAL_MODIFIERS, ShapeParameters, _split, hm08_faces, hm08_landmarks, shape_vertices
 
 __all__ = ["MeasuredBody", "from_measurements"]
 
@@ -134,12 +134,8 @@ class _Parameters:
 
     def vector(self, s: ShapeParameters) -> np.ndarray:
         values = {"weight": s.weight, "height": s.height, "cupsize": s.cupsize}
-        for m in self.locals:
-            v = s.local.get(m, 0.0)
-            if isinstance(v, (tuple, list)):     # both targets on at once (see shape())
-                values[m + "+"], values[m + "-"] = float(v[0]), float(v[1])
-            else:
-                values[m + "+"], values[m + "-"] = max(v, 0.0), max(-v, 0.0)
+        for m in self.locals:        # a signed value, or both targets on at once (see shape())
+            values[m + "+"], values[m + "-"] = _split(s.local.get(m, 0.0))
         return np.array([values[n] for n in self.names])
 
     def shape(self, x: np.ndarray) -> ShapeParameters:

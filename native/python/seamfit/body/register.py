@@ -372,7 +372,7 @@ def _model_fit(scan: Body, m: dict, gender: str, index, tell, stages):
     tell("model fit", 0.0)
     t1 = time.perf_counter()
     p = _Parameters(gender, MEASUREMENTS)
-    x = _as_vector(p, made.shape)
+    x = p.vector(made.shape)
     F = hm08_faces().astype(np.int64)
     lo_s, hi_s = scan.vertices.min(axis=0), scan.vertices.max(axis=0)
     V = shape_vertices(p.shape(x), place=False)
@@ -411,15 +411,6 @@ def _model_fit(scan: Body, m: dict, gender: str, index, tell, stages):
     V = shape_vertices(p.shape(x), place=False) + offset
     return V, {"gender": gender, "measurements_fit": made.report()["achieved_cm"],
                "parameters": p.shape(x).as_dict()}
-
-
-def _as_vector(p, shape) -> np.ndarray:
-    """The fit's parameter vector of a shape whose local modifiers may be (incr, decr) pairs."""
-    from .shape_model import _split
-    values = {"weight": shape.weight, "height": shape.height, "cupsize": shape.cupsize}
-    for m in p.locals:
-        values[m + "+"], values[m + "-"] = _split(shape.local.get(m, 0.0))
-    return np.array([values[n] for n in p.names])
 
 
 def _scaled_template(template: Body, scan: Body, m: dict) -> np.ndarray:

@@ -118,32 +118,32 @@ class SurfaceIndex:
         otherwise search thousands of samples."""
         P = np.asarray(P, dtype=np.float64).reshape(-1, 3)
         n = len(P)
+        # An upper bound first: the distance to the nearest sample's triangle.
+        _, s = self.tree.query(P, k=1, workers=-1)
+        first = self.sample_tri[s]
+        bound = self._nearest(P, np.arange(n), first, n)[0]
+        # Every triangle that can be nearer (or within ``within``) has a sample in this ball
+        # (module docstring); a point farther than ``within`` keeps its bound.
+        balls = self.tree.query_ball_point(P, np.minimum(bound, within) + self.radius, workers=-1,
+                                           return_sorted=False)
+        counts = np.fromiter(map(len, balls), np.int64, n)
+        rows = np.r_[np.arange(n), np.repeat(np.arange(n), counts)]
+        tris = np.r_[first, self.sample_tri[np.concatenate([np.zeros(0, np.int64), *balls]).astype(np.int64)]]
+        pairs = np.unique(rows * len(self.F) + tris)
+        return self._nearest(P, pairs // len(self.F), pairs % len(self.F), n)
+
+    def _nearest(self, P, rows, tris, n):
+        """Per point of P, the nearest of the (rows, tris) pairs' triangles, the lowest
+        triangle on a tie (inf where none)."""
+        F = self.F[tris]
+        Q, bary = closest_on_triangles(P[rows], self.V[F[:, 0]], self.V[F[:, 1]], self.V[F[:, 2]])
+        d = np.linalg.norm(P[rows] - Q, axis=1)
+        order = np.lexsort((tris, d, rows))
+        head = order[np.r_[True, rows[order][1:] != rows[order][:-1]]]   # each row's nearest
         best_d = np.full(n, np.inf)
         best_t = np.zeros(n, np.int64)
         best_q = np.zeros((n, 3))
         best_b = np.zeros((n, 3))
-        todo, k = np.arange(n), self.k
-        while todo.size:
-            dk, cand = self.tree.query(P[todo], k=k, workers=-1)
-            dk, cand = dk.reshape(len(todo), k), self.sample_tri[cand.reshape(len(todo), k)]
-            # every (point, triangle) pair once
-            cand = np.sort(cand, axis=1)
-            first = np.ones(cand.shape, bool)
-            first[:, 1:] = cand[:, 1:] != cand[:, :-1]
-            rows = np.repeat(todo, k).reshape(len(todo), k)[first]
-            tris = cand[first]
-            F = self.F[tris]
-            Q, bary = closest_on_triangles(P[rows], self.V[F[:, 0]], self.V[F[:, 1]], self.V[F[:, 2]])
-            d = np.linalg.norm(P[rows] - Q, axis=1)
-            order = np.lexsort((d, rows))
-            head = order[np.r_[True, rows[order][1:] != rows[order][:-1]]]   # each row's nearest
-            r = rows[head]
-            better = d[head] < best_d[r]
-            r, head = r[better], head[better]
-            best_d[r], best_t[r], best_q[r], best_b[r] = d[head], tris[head], Q[head], bary[head]
-            if k >= len(self.samples):
-                break
-            # Exact once no unseen triangle can be nearer (module docstring), or than ``within``.
-            todo = todo[dk[:, -1] < np.minimum(best_d[todo], within) + self.radius]
-            k = min(4 * k, len(self.samples))
+        r = rows[head]
+        best_d[r], best_t[r], best_q[r], best_b[r] = d[head], tris[head], Q[head], bary[head]
         return best_d, best_t, best_q, best_b

@@ -1,10 +1,9 @@
 """Exact closest points on a triangle mesh, for registration and its error report.
 
 A k-d tree holds points sampled on every triangle, each within a radius r of every
-point of its part of the triangle. Each query point is tested against the triangles of
-its k nearest samples; the answer is exact once no other triangle can be nearer: the
-closest point has a sample of its triangle within r, so within best + r of the query.
-Points whose k-th sample is nearer than that are tested again with 4k samples.
+point of its part of the triangle. The nearest sample's triangle gives a bound b on a
+query point's distance; the closest point has a sample of its triangle within r, so
+within b + r of the query: the triangles of the samples in that ball hold the answer.
 """
 from __future__ import annotations
 
@@ -93,7 +92,7 @@ def area_samples(vertices, faces, spacing: float) -> tuple[np.ndarray, np.ndarra
 class SurfaceIndex:
     """Closest-point queries on one triangle mesh (vertices (n, 3), faces (m, 3))."""
 
-    def __init__(self, vertices, faces, spacing: float | None = None, k: int = 12):
+    def __init__(self, vertices, faces, spacing: float | None = None):
         from scipy.spatial import cKDTree     # here: importing seamfit.body stays light
         self.V = np.asarray(vertices, dtype=np.float64)
         self.F = np.asarray(faces, dtype=np.int64)
@@ -108,7 +107,6 @@ class SurfaceIndex:
         self.radius = float((reach / n).max())
         self.samples, self.sample_tri = subdivision_centroids(T, n)
         self.tree = cKDTree(self.samples)
-        self.k = min(k, len(self.samples))
 
     def query(self, P, within: float = np.inf) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per point: distance, closest triangle, closest point and its barycentric coordinates.
@@ -118,6 +116,8 @@ class SurfaceIndex:
         otherwise search thousands of samples."""
         P = np.asarray(P, dtype=np.float64).reshape(-1, 3)
         n = len(P)
+        if n == 0:
+            return np.zeros(0), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3))
         # An upper bound first: the distance to the nearest sample's triangle.
         _, s = self.tree.query(P, k=1, workers=-1)
         first = self.sample_tri[s]

@@ -159,6 +159,9 @@ def run_case(data: str, garment: str, body: str, grade_kw: dict) -> dict:
             thetas["truth"] = truth_on_mesh(ctx.mesh, ctx.param, base, truth)
         except ValueError as exc:
             row["candidates"]["truth"] = {"ok": False, "error": str(exc)}
+        from seamfit.opt.fit import ease_report
+        tri = ctx.mesh.triangles
+        row["base_ease_cm"] = ease_report(ctx.base_body, ctx.xbar, tri)
         out = algorithm1(ctx)
         xs = {"initialized": out.x_start, "graded": out.x}
         thetas["initialized"], thetas["graded"] = out.theta_start, out.theta
@@ -172,7 +175,9 @@ def run_case(data: str, garment: str, body: str, grade_kw: dict) -> dict:
                 entry["drape_converged"] = bool(res.converged)
             f, terms = ctx.objective.objective(x, theta)
             entry.update({"f": f, "terms": terms,
-                          "landmark_max_cm": landmark_errors(pattern_of(ctx, theta), truth).max_cm})
+                          "landmark_max_cm": landmark_errors(pattern_of(ctx, theta), truth).max_cm,
+                          # does the draft itself hold the base garment's ease on the new body?
+                          "ease_cm": ease_report(ctx.target_body, x, tri)})
             row["candidates"][name] = entry
     except Exception as exc:  # noqa: BLE001 - a benchmark records, never stops
         row["error"] = f"{type(exc).__name__}: {exc}"
@@ -198,6 +203,30 @@ def cmd_run(a) -> int:
             print(f"{r['garment']}/{r['body']} ({r['seconds']:.0f} s): {msg}", flush=True)
             a.out.write_text(json.dumps({"command": " ".join(sys.argv), "cases": rows}, indent=1) + "\n")
     return 0
+
+
+def _ease_table(rows, med) -> list[str]:
+    """Median |ease on the target - the base garment's ease on the base body| per level and
+    candidate: how far each pattern, the drafts' own included, is from holding the ease."""
+    from accuracy_case import EASE_LEVELS, ease_errors
+    rows = [r for r in rows if r.get("base_ease_cm")]
+    if not rows or not any("ease_cm" in e for r in rows for e in r["candidates"].values()):
+        return []
+    out = ["", "## Ease held at the tape-measure levels", "",
+           "Median over the cases of |ease on the target - the base garment's ease on the base body| "
+           "(cm; garment tape girth minus body tape girth at the body's level), and in brackets the "
+           "number of cases where the garment reaches that level.", "",
+           "| candidate | " + " | ".join(EASE_LEVELS) + " |", "|---|" + "---:|" * len(EASE_LEVELS)]
+    for c in CANDIDATES:
+        per = {k: [] for k in EASE_LEVELS}
+        for r in rows:
+            e = r["candidates"].get(c, {})
+            if e.get("ok") and e.get("ease_cm"):
+                for k, v in ease_errors(r["base_ease_cm"], e["ease_cm"])["levels"].items():
+                    per[k].append(v)
+        if any(per.values()):
+            out.append(f"| {c} | " + " | ".join(f"{med(v):.2f} ({len(v)})" if v else "-" for v in per.values()) + " |")
+    return out
 
 
 def cmd_report(a) -> int:
@@ -229,6 +258,7 @@ def cmd_report(a) -> int:
         lines.append(f"| {c} | {med([e['f'] for e in es]):.3g} | "
                      + " | ".join(f"{med([e['terms'].get(t, 0.0) for e in es]):.3g}" for t in TERMS)
                      + f" | {med([e['landmark_max_cm'] for e in es]):.2f} |")
+    lines += _ease_table(ok, med)
     lines += ["", "## Per case", "", "| garment | body | " + " | ".join(f"f {c} (lm)" for c in CANDIDATES)
               + " | largest term gap truth - graded |", "|---|---|" + "---|" * (len(CANDIDATES) + 1)]
     for r in rows:

@@ -162,27 +162,77 @@ def format_rul(rules: Sequence[np.ndarray], labels: Sequence[str], base_index: i
     return "\r\n".join(lines) + "\r\n"
 
 
-def parse_rul(text: str) -> dict:
-    """Read back a RUL table written by :func:`format_rul`: sizes, sample size, units and
-    rules (number -> (sizes, 2) array)."""
+RUL_UNITS = {"METRIC": "mm", "ENGLISH": "in"}
+
+
+def parse_rul(text: str, where: str = "RUL table") -> dict:
+    """A RUL grade-rule table (ASTM D6673, as :func:`format_rul` writes it): ``sizes``,
+    ``sample_size``, ``units`` ('mm' for METRIC, 'in' for ENGLISH) and ``rules`` (number ->
+    (sizes, 2) array of DELTA moves from the sample size; a rule's moves may run over several
+    lines). Anything else is a PatternError naming ``where``, the line and the rule."""
     out: dict = {"rules": {}}
-    current = None
-    for raw in text.splitlines():
+    current: int | None = None
+    moves: list[list[float]] = []
+
+    def close(lineno: int) -> None:
+        if current is not None and len(moves) != len(out["sizes"]):
+            raise PatternError(f"{where}: rule {current} has {len(moves)} moves, the SIZE LIST "
+                               f"{len(out['sizes'])} sizes (line {lineno})")
+        if current is not None:
+            out["rules"][current] = np.array(moves, dtype=float).reshape(-1, 2)
+
+    lineno = 0
+    for lineno, raw in enumerate(text.splitlines(), 1):
         line = raw.strip()
-        if not line or line == "END":
+        if not line:
             continue
         key, sep, value = line.partition(":")
+        key = key.strip().upper()
+        if line.upper() == "END":
+            break
         if sep and key == "SIZE LIST":
             out["sizes"] = value.split()
+        elif sep and key == "NUMBER OF SIZES":
+            out["number_of_sizes"] = value.strip()
         elif sep and key == "SAMPLE SIZE":
             out["sample_size"] = value.strip()
         elif sep and key == "UNITS":
-            out["units"] = value.strip()
+            if value.strip().upper() not in RUL_UNITS:
+                raise PatternError(f"{where}: UNITS {value.strip()!r} (line {lineno}); expected METRIC or ENGLISH")
+            out["units"] = RUL_UNITS[value.strip().upper()]
         elif sep and key == "RULE":
-            current = int(value.split()[-1])
-        elif current is not None and "," in line:
-            out["rules"][current] = np.array([[float(v) for v in pair.split(",")] for pair in line.split()])
-            current = None
+            close(lineno)
+            kind, _, num = value.strip().rpartition(" ")
+            if kind.strip().upper() != "DELTA" or not num.isdigit():
+                raise PatternError(f"{where}: line {lineno} {line!r}: only 'RULE: DELTA <number>' rules are read")
+            if "sizes" not in out:
+                raise PatternError(f"{where}: rule {num} (line {lineno}) comes before the SIZE LIST")
+            current, moves = int(num), []
+            if current in out["rules"]:
+                raise PatternError(f"{where}: rule {current} is given twice (line {lineno})")
+        elif not sep and current is not None:
+            for pair in line.replace(", ", ",").split():
+                try:
+                    dx, dy = (float(v) for v in pair.split(","))
+                except ValueError:
+                    raise PatternError(f"{where}: rule {current}, line {lineno}: {pair!r} is not a move 'dx,dy'") from None
+                if not (np.isfinite(dx) and np.isfinite(dy)):
+                    raise PatternError(f"{where}: rule {current}, line {lineno}: move {pair!r} is not finite")
+                moves.append([dx, dy])
+            if len(moves) > len(out["sizes"]):
+                raise PatternError(f"{where}: rule {current} has more moves than the SIZE LIST's "
+                                   f"{len(out['sizes'])} sizes (line {lineno})")
+        elif not sep:
+            raise PatternError(f"{where}: line {lineno} {line[:40]!r} is neither a header line nor in a rule")
+    close(lineno)
+    for key, what in (("sizes", "SIZE LIST"), ("sample_size", "SAMPLE SIZE"), ("units", "UNITS")):
+        if key not in out:
+            raise PatternError(f"{where}: no {what} line; not a RUL grade-rule table")
+    if "number_of_sizes" in out and out.pop("number_of_sizes") != str(len(out["sizes"])):
+        raise PatternError(f"{where}: NUMBER OF SIZES does not match the {len(out['sizes'])} sizes of the SIZE LIST")
+    if out["sample_size"] not in out["sizes"]:
+        raise PatternError(f"{where}: SAMPLE SIZE {out['sample_size']!r} is not in the SIZE LIST "
+                           f"({' '.join(out['sizes'])})")
     return out
 
 

@@ -29,6 +29,11 @@ multi-size DXF (pieces of several sizes, each with its Size: text, as grade-run'
   sample size in black) and the .dxf output keeps every size in ASTM's multi-size form;
   a .json output (one pattern) needs --size, and the error lists the sizes.
 
+graded DXF (a base size whose grade points carry '# n' rule numbers, as grade-run's
+graded.dxf) with its RUL grade-rule table: --rul RULES.rul grades the base to every size of
+the table, which then converts as a multi-size DXF (--size NAME for one). The table is
+never looked for on its own.
+
 DXF has no stitches and no 3D placement. They are kept in a seams sidecar beside the
 DXF, <name>.seams.json (for <name>.dxf, <name>.aama.dxf and <name>.astm.dxf):
   * reading a DXF uses --seams FILE, else the sidecar beside it if there is one;
@@ -60,6 +65,9 @@ def register(subparsers) -> None:
                    help="units of a DXF output (default mm)")
     p.add_argument("--size", metavar="NAME", default=None,
                    help="of a multi-size DXF input, convert this size (its pieces' Size: text)")
+    p.add_argument("--rul", metavar="RULES.rul", type=Path, default=None,
+                   help="grade a base DXF input by this RUL grade-rule table (the graded form: '# n' "
+                        "rule numbers at its grade points); one pattern per size, as a multi-size DXF")
     p.add_argument("--seams", metavar="SEAMS.json", type=Path, default=None,
                    help="seams sidecar of a DXF input (default: <name>.seams.json beside it, if any)")
     p.add_argument("--propose-seams", metavar="SEAMS.json", type=Path, default=None,
@@ -92,7 +100,7 @@ def run(args) -> int:
     kind = _out_kind(args.out) if args.out is not None else None
     if args.seam_allowance is not None:
         number("--seam-allowance", args.seam_allowance, allow_zero=True)
-    inputs = [args.input, args.seams]
+    inputs = [args.input, args.seams, args.rul]
     from ..pattern.seams import sidecar_path
     if args.input.suffix.lower() == ".dxf":
         inputs.append(sidecar_path(args.input))
@@ -108,12 +116,14 @@ def run(args) -> int:
     if args.input.suffix.lower() == ".dxf":
         from ..pattern.dxf_sizes import one_size
         from ..pattern.io import read_dxf_size_file
-        sizes = read_dxf_size_file(args.input, dxf_units=args.dxf_units, seams=args.seams, size=args.size)
+        sizes = read_dxf_size_file(args.input, dxf_units=args.dxf_units, seams=args.seams, size=args.size,
+                                   rul=args.rul)
         if args.size is None and len(sizes.patterns) > 1 and kind in ("svg", "dxf"):
             return _all_sizes(sizes, args, kind, flavor, inputs)
         pattern, fmt = one_size(sizes, args.size), f"dxf-{sizes.flavor}"
     else:
-        pattern, fmt = read_pattern_file(args.input, dxf_units=args.dxf_units, seams=args.seams, size=args.size)
+        pattern, fmt = read_pattern_file(args.input, dxf_units=args.dxf_units, seams=args.seams, size=args.size,
+                                         rul=args.rul)
     notes = (pattern.extra.get("source") or {}).get("notes", []) if fmt.startswith("dxf") else []
     if not args.quiet:
         for m in notes:

@@ -24,7 +24,8 @@ DXF-AAMA / DXF-ASTM patterns (.dxf): read as seamfit convert reads them (docs/fo
   "DXF"), with the stitches and placements of the seams sidecar beside the file
   (<name>.seams.json) or --seams; then the same checks. The reader's notes (a broken cut
   line dropped, a far piece moved) are printed as "note:" lines. A multi-size DXF (pieces
-  of several sizes, each with its Size: text) is checked size by size, or one with --size.
+  of several sizes, each with its Size: text) is checked size by size, or one with --size;
+  so is a graded base DXF with its RUL grade-rule table given by --rul.
 notches across a seam: where both sides of a stitch carry notches, they must sit at the
   same arc length from the seam's start (read as the stitch joins the sides) within
   NOTCH_MATCH_CM; a notch without its partner is a warning naming the stitch and notch.
@@ -48,6 +49,8 @@ def register(subparsers) -> None:
                         "its Units text)")
     p.add_argument("--size", metavar="NAME", default=None,
                    help="of a multi-size DXF, check this size only (default: every size in turn)")
+    p.add_argument("--rul", metavar="RULES.rul", type=Path, default=None,
+                   help="a base DXF's RUL grade-rule table: check every size it grades to (or --size)")
     p.add_argument("--seams", metavar="SEAMS.json", type=Path, default=None,
                    help="a DXF pattern's seams sidecar (default: <name>.seams.json beside it, if any)")
     p.add_argument("--seam-tolerance", type=float, default=SEAM_TOLERANCE_CM, metavar="CM",
@@ -92,9 +95,10 @@ def _run_pattern(args) -> int:
             check_not_an_input(out, [args.file])
     size = getattr(args, "size", None)
     dxf_units, seams = getattr(args, "dxf_units", None), getattr(args, "seams", None)
+    rul = getattr(args, "rul", None)
     if Path(args.file).suffix.lower() == ".dxf" and size is None:
         from ..pattern.io import read_dxf_size_file
-        sizes = read_dxf_size_file(args.file, dxf_units=dxf_units, seams=seams)
+        sizes = read_dxf_size_file(args.file, dxf_units=dxf_units, seams=seams, rul=rul)
         if len(sizes.patterns) > 1:
             if args.fix is not None or args.svg is not None:
                 raise SeamfitError(f"{args.file}: --fix and --svg take one size of a multi-size DXF; choose one "
@@ -104,7 +108,7 @@ def _run_pattern(args) -> int:
             return max(codes)
         pattern, fmt = next(iter(sizes.patterns.values())), f"dxf-{sizes.flavor}"
     else:
-        pattern, fmt = read_pattern_file(args.file, dxf_units=dxf_units, seams=seams, size=size)
+        pattern, fmt = read_pattern_file(args.file, dxf_units=dxf_units, seams=seams, size=size, rul=rul)
     return _check_one(pattern, fmt, args, size)
 
 

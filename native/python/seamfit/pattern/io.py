@@ -33,7 +33,8 @@ def load_pattern(path: str | Path) -> Pattern:
 
 
 def read_pattern_file(path: str | Path, *, dxf_units: str | None = None,
-                      seams: str | Path | None = None, size: str | None = None) -> tuple[Pattern, str]:
+                      seams: str | Path | None = None, size: str | None = None,
+                      rul: str | Path | None = None) -> tuple[Pattern, str]:
     """:func:`load_pattern`, also returning the detected format ('sewpat-1', 'garmentcode',
     'dxf-aama' or 'dxf-astm').
 
@@ -41,12 +42,15 @@ def read_pattern_file(path: str | Path, *, dxf_units: str | None = None,
     declares); its stitches and placements come from ``seams`` or, when that is not given,
     from the seams sidecar beside it (``<name>.seams.json``) if there is one. The reader's
     notes (what it dropped or guessed) are in ``pattern.extra["source"]["notes"]``. A DXF
-    holding several sizes needs ``size`` (PatternError listing them otherwise)."""
+    holding several sizes, or graded by a RUL table (``rul``), needs ``size`` (PatternError
+    listing them otherwise)."""
     path = Path(path)
     if path.suffix.lower() == ".dxf":
         from .dxf_sizes import one_size
-        sizes = read_dxf_size_file(path, dxf_units=dxf_units, seams=seams, size=size)
+        sizes = read_dxf_size_file(path, dxf_units=dxf_units, seams=seams, size=size, rul=rul)
         return one_size(sizes, size), f"dxf-{sizes.flavor}"
+    if rul is not None:
+        raise PatternError(f"{path}: --rul {Path(rul).name} grades a base DXF file, not this one")
     if size is not None:
         raise PatternError(f"{path}: --size {size!r} applies to a multi-size DXF file, not to this one")
     if not path.exists():
@@ -87,14 +91,19 @@ def read_pattern_file(path: str | Path, *, dxf_units: str | None = None,
 
 
 def read_dxf_size_file(path: str | Path, *, dxf_units: str | None = None, seams: str | Path | None = None,
-                       size: str | None = None):
-    """A DXF as seamfit.pattern.dxf_sizes.DxfSizes (one pattern per size), the reader's
-    notes in each pattern's ``extra["source"]["notes"]`` and the seams sidecar (``seams``,
-    else the one beside the file) applied to each size, or only to ``size`` when given."""
+                       size: str | None = None, rul: str | Path | None = None):
+    """A DXF as seamfit.pattern.dxf_sizes.DxfSizes (one pattern per size: its pieces' Size
+    texts, or with ``rul`` the base graded by that RUL table, seamfit.pattern.dxf_graded),
+    the reader's notes in each pattern's ``extra["source"]["notes"]`` and the seams sidecar
+    (``seams``, else the one beside the file) applied to each size, or only to ``size``."""
     from .dxf_sizes import read_dxf_sizes, size_notes
     from .seams import apply_sidecar, sidecar_path
     path = Path(path)
-    sizes = read_dxf_sizes(path, units=dxf_units)
+    if rul is not None:
+        from .dxf_graded import read_graded_dxf
+        sizes = read_graded_dxf(path, rul, units=dxf_units)
+    else:
+        sizes = read_dxf_sizes(path, units=dxf_units)
     side = Path(seams) if seams is not None else sidecar_path(path)
     for label, pattern in sizes.patterns.items():
         source = pattern.extra.setdefault("source", {})

@@ -12,7 +12,8 @@ Two forms are written (docs/formats.md, "Size runs"):
   units, in the same top-centre frame. Points that move alike share a rule.
 
 Reading (``read_dxf_sizes``): the pieces of any DXF grouped by their ``Size:`` text, one
-pattern per size; ``one_size`` picks the one a command works on.
+pattern per size; ``one_size`` picks the one a command works on. The graded form is read
+back by seamfit.pattern.dxf_graded (``parse_rul`` reads its table).
 """
 from __future__ import annotations
 

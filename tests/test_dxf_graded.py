@@ -110,6 +110,10 @@ def test_convert_and_validate_take_the_rule_table(run, tmp_path, capsys):
     assert multi.labels == LABELS and multi.sample_size == "M"
     assert cli.main(["validate", str(dxf), "--rul", str(rul)]) == 0
     assert capsys.readouterr().out.count("\nOK") == 3
+    assert cli.main(["convert", str(dxf), "--rul", str(rul), "--out", str(tmp_path / "x.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "a base DXF graded by modell.rul to 3 sizes (S, M, L; sample size M)" in err and "\n" not in err
+    assert "seamfit convert modell.dxf --rul modell.rul --size NAME" in err and not (tmp_path / "x.json").exists()
     assert (_sha(dxf), _sha(rul)) == before, "inputs are never modified"
 
 

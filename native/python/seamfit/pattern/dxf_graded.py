@@ -95,7 +95,7 @@ def read_graded_dxf(path, rul_path, *, units: str | None = None) -> DxfSizes:
             pat.panels[j].extra["size"] = label
         patterns[label] = pat
     return DxfSizes(path=path, patterns=patterns, sample_size=sample, flavor=res.flavor, units=res.units,
-                    notes=notes)
+                    notes=notes, rul=rul_path)
 
 
 def _grade_points(panel: Panel, table: dict, path: Path, rul_path: Path) -> tuple[list[int], list[int]]:

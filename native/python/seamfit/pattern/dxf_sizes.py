@@ -268,13 +268,15 @@ def write_graded_dxf(path, rul_path, patterns: Sequence[Pattern], labels: Sequen
 class DxfSizes:
     """A DXF's pieces grouped by size: ``patterns`` maps each size, in file order, to its
     pattern (one entry, keyed None, when no piece names a size); ``sample_size`` is the
-    header's ``Sample Size:`` when it names one of them."""
+    header's ``Sample Size:`` when it names one of them; ``rul`` the RUL table the sizes were
+    graded by (seamfit.pattern.dxf_graded), if they were."""
     path: Path
     patterns: dict[str | None, Pattern]
     sample_size: str | None
     flavor: str
     units: str
     notes: list[str]
+    rul: Path | None = None
 
     @property
     def labels(self) -> list[str]:
@@ -330,9 +332,12 @@ def one_size(sizes: DxfSizes, size: str | None) -> Pattern:
     if size is None:
         if len(sizes.patterns) > 1:
             sample = f"; sample size {sizes.sample_size}" if sizes.sample_size else ""
-            raise PatternError(f"{sizes.path}: a multi-size DXF holding {len(sizes.patterns)} sizes ({listed}"
+            what = (f"a base DXF graded by {sizes.rul.name} to" if sizes.rul is not None
+                    else "a multi-size DXF holding")
+            rul = f" --rul {sizes.rul.name}" if sizes.rul is not None else ""
+            raise PatternError(f"{sizes.path}: {what} {len(sizes.patterns)} sizes ({listed}"
                                f"{sample}); choose one with --size NAME (convert, validate), or for the other "
-                               f"commands write it out first: seamfit convert {sizes.path.name} --size NAME "
+                               f"commands write it out first: seamfit convert {sizes.path.name}{rul} --size NAME "
                                "--out NAME.json")
         return next(iter(sizes.patterns.values()))
     if size not in sizes.patterns:

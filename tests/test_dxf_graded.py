@@ -154,3 +154,34 @@ def test_a_size_the_table_lacks_is_named(run, capsys):
     code = cli.main(["validate", str(folder / "modell.dxf"), "--rul", str(folder / "modell.rul"), "--size", "XL"])
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.endswith("no size 'XL'; the file holds sizes S, M, L") and "\n" not in err
+
+
+def test_rules_on_the_cut_line_go_to_the_seam_corner(run, tmp_path):
+    """AAMA's boundary is the cut line: a rule number there grades the seam line's nearest
+    edge end. modell_2's corner rules moved onto its mitred cut-line corners (through ezdxf)."""
+    import ezdxf
+    folder, sizes = run
+    doc = ezdxf.readfile(folder / "modell.dxf")
+    moved = 0
+    for ref in doc.modelspace().query("INSERT"):
+        blk = doc.blocks.get(ref.dxf.name)
+        cut = np.array([p[:2] for e in blk if e.dxftype() == "LWPOLYLINE" and e.dxf.layer == "1"
+                        for p in e.get_points("xy")])
+        corners = np.array([(e.dxf.location.x, e.dxf.location.y) for e in blk if e.dxftype() == "POINT" and e.dxf.layer == "2"])
+        for e in blk:
+            if e.dxftype() == "TEXT" and e.dxf.text.startswith("# "):
+                q = np.array((e.dxf.insert.x, e.dxf.insert.y))
+                if len(corners) and np.linalg.norm(corners - q, axis=1).min() < 1e-6:
+                    c = cut[np.argmin(np.linalg.norm(cut - q, axis=1))]
+                    e.dxf.insert = (float(c[0]), float(c[1]))
+                    moved += 1
+    assert moved > 10
+    doc.saveas(tmp_path / "on_cut.dxf")
+    back = read_graded_dxf(tmp_path / "on_cut.dxf", folder / "modell.rul")
+    assert sum(int(m.split(": ")[-1].split()[0]) for m in back.notes if "on the cut line" in m) == moved
+    base = sizes[1]
+    for lab, src in zip(LABELS, sizes):
+        for b, a, g in zip(base.panels, src.panels, back.patterns[lab].panels):
+            want = a.outline_cm - _anchor(a.outline_cm) + _anchor(b.outline_cm)
+            # the rules were measured at the seam corners: mapped back there, each corner is in place
+            assert np.abs(g.outline_cm[b.corners] - want[b.corners]).max() < 0.01, (lab, a.name)

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import PatternError
+from .allowance import MITRE_LIMIT
 from .dxf import UNITS_CM, build_panel_geometry, read_dxf_file
 from .dxf_sizes import DxfSizes, parse_rul
 from .model import Panel, Pattern
@@ -74,9 +75,9 @@ def read_graded_dxf(path, rul_path, *, units: str | None = None) -> DxfSizes:
     to_cm = UNITS_CM[table["units"]]
     k_sample = table["sizes"].index(sample)
     graded = []          # per panel: (grade vertices, rule numbers)
-    for panel in base.panels:
-        graded.append(_grade_points(panel, table, path, rul_path))
     notes = list(res.notes)
+    for panel in base.panels:
+        graded.append(_grade_points(panel, table, path, rul_path, notes))
     bare = [p.name for p, (idx, _) in zip(base.panels, graded) if not idx]
     if bare:
         notes.append(f"{path}: piece(s) {', '.join(map(repr, bare))} carry no grade rule; the same in every size")
@@ -98,34 +99,54 @@ def read_graded_dxf(path, rul_path, *, units: str | None = None) -> DxfSizes:
                     notes=notes, rul=rul_path)
 
 
-def _grade_points(panel: Panel, table: dict, path: Path, rul_path: Path) -> tuple[list[int], list[int]]:
+def _grade_points(panel: Panel, table: dict, path: Path, rul_path: Path,
+                  notes: list[str]) -> tuple[list[int], list[int]]:
     """The panel's grade points (outline vertices) and their rule numbers, from its ``# n``
-    texts, which are taken out of the panel's texts."""
+    texts, which are taken out of the panel's texts. A rule on the cut line (AAMA's boundary)
+    goes to the seam line's nearest edge end, the allowance moving with it, unless that point
+    has a rule of its own; a note says how many."""
     dxf = panel.extra.get("dxf") if isinstance(panel.extra.get("dxf"), dict) else {}
     o = np.asarray(panel.outline_cm, dtype=float)
-    at: dict[int, int] = {}
-    kept = []
+    cut = np.asarray(dxf.get("cut_line_cm") or np.zeros((0, 2)), dtype=float).reshape(-1, 2)
+    allowance = max((float(e.extra.get("seam_allowance_cm") or 0.0) for e in panel.edges), default=0.0)
+    ends = sorted(set(int(i) for i in panel.nodes) | set(int(i) for i in panel.corners))
+    rules, kept = [], []
     for t in dxf.get("texts") or []:
         m = RULE_TEXT.fullmatch(str(t.get("text", "")).strip())
-        if not m:
+        if m:
+            p = np.asarray(t["at_cm"], dtype=float)
+            rules.append((float(np.linalg.norm(o - p, axis=1).min()) > ON_POINT_CM, int(m.group(1)), p))
+        else:
             kept.append(t)
-            continue
-        r = int(m.group(1))
-        p = np.asarray(t["at_cm"], dtype=float)
-        d = np.linalg.norm(o - p, axis=1)
-        i = int(np.argmin(d))
+    at: dict[int, int] = {}
+    on_cut = 0
+    for off_seam, r, p in sorted(rules, key=lambda x: x[0]):        # the seam line's own rules first
         where = f"{path}: piece {panel.name!r}: grade rule # {r} at ({p[0]:.2f}, {p[1]:.2f}) cm"
-        if d[i] > ON_POINT_CM:
-            raise PatternError(f"{where} is {d[i] * 10:.2f} mm from the nearest outline point; a rule number "
-                               "sits on its grade point of the seam line")
         if r not in table["rules"]:
             raise PatternError(f"{where}: no rule {r} in {rul_path.name} (its rules: "
                                f"{_ranges(sorted(table['rules']))})")
+        d = np.linalg.norm(o - p, axis=1)
+        i = int(np.argmin(d))
+        if off_seam:
+            if not (len(cut) and float(np.linalg.norm(cut - p, axis=1).min()) <= ON_POINT_CM and ends):
+                raise PatternError(f"{where} is {d[i] * 10:.2f} mm from the nearest outline point; a rule number "
+                                   "sits on its grade point of the seam or cut line")
+            de = np.linalg.norm(o[ends] - p, axis=1)
+            i = ends[int(np.argmin(de))]
+            if float(de.min()) > MITRE_LIMIT * allowance + ON_POINT_CM:
+                raise PatternError(f"{where} is on the cut line, {float(de.min()) * 10:.1f} mm from the seam "
+                                   f"line's nearest edge end, more than {MITRE_LIMIT:g} seam allowances")
+            on_cut += 1
+            at.setdefault(i, r)
+            continue
         if at.get(i, r) != r:
             raise PatternError(f"{where}: the point already carries rule {at[i]}")
         at[i] = r
     if dxf:
         dxf["texts"] = kept
+    if on_cut:
+        notes.append(f"{path}: piece {panel.name!r}: {on_cut} grade rule(s) on the cut line, each applied to the "
+                     "seam line's nearest edge end")
     idx = sorted(at)
     return idx, [at[i] for i in idx]
 

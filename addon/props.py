@@ -25,6 +25,18 @@ class SEAMFIT_PG_stitch_info(bpy.types.PropertyGroup):
     gathered: BoolProperty(name="Gathered")
 
 
+class SEAMFIT_PG_proposed_stitch(bpy.types.PropertyGroup):
+    """A stitch seamfit proposes for a pattern read from a DXF (which has none): the user
+    accepts it, then Confirm Stitches puts the accepted ones into the pattern."""
+    entry: StringProperty(description="The proposal as seamfit's seams sidecar entry (JSON)")
+    accept: BoolProperty(name="Accept", default=False, description="Sew these two runs together")
+    panel_a: StringProperty(name="Side A")
+    panel_b: StringProperty(name="Side B")
+    length_a_cm: FloatProperty(name="Length A (cm)")
+    length_b_cm: FloatProperty(name="Length B (cm)")
+    why: StringProperty(name="Why", description="Why seamfit proposes it")
+
+
 class SEAMFIT_PG_fit(bpy.types.PropertyGroup):
     """Ease (garment girth minus body girth) of a garment on a body, in cm."""
     valid: BoolProperty(default=False)
@@ -53,6 +65,9 @@ class SEAMFIT_PG_pattern_info(bpy.types.PropertyGroup):
     iterations: IntProperty(name="Iterations")
     method: StringProperty(name="Method", description="The grading method that made this pattern")
     warnings: CollectionProperty(type=SEAMFIT_PG_message)
+    size: StringProperty(name="Size", description="The size read from a multi-size DXF")
+    proposals: CollectionProperty(type=SEAMFIT_PG_proposed_stitch)
+    active_proposal: IntProperty()
 
 
 class SEAMFIT_PG_body_report(bpy.types.PropertyGroup):
@@ -297,8 +312,8 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
                                  description="How Compare lays the base and graded panels out")
 
 
-CLASSES = (SEAMFIT_PG_panel_info, SEAMFIT_PG_stitch_info, SEAMFIT_PG_fit, SEAMFIT_PG_message, SEAMFIT_PG_pattern_info,
-           SEAMFIT_PG_body_report, SEAMFIT_PG_chart_size, SEAMFIT_PG_measure, SEAMFIT_PG_settings)
+CLASSES = (SEAMFIT_PG_panel_info, SEAMFIT_PG_stitch_info, SEAMFIT_PG_proposed_stitch, SEAMFIT_PG_fit,
+           SEAMFIT_PG_message, SEAMFIT_PG_pattern_info, SEAMFIT_PG_body_report, SEAMFIT_PG_chart_size, SEAMFIT_PG_measure, SEAMFIT_PG_settings)
 
 
 def register():

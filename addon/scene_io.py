@@ -267,17 +267,37 @@ def apply_edits(coll) -> tuple[list[str], list[str]]:
         obj.matrix_world = placement_matrix(pn.placement)      # a scale is in the outline now
         obj["seamfit_corners"] = [int(i) for i in pn.corners]
         panel_curves.remember(obj, owner)
+    if edited:
+        _redraw_stitches(coll, pattern)
+    coll[PATTERN_KEY] = compute.pattern_to_json(pattern)
+    info = coll.seamfit
+    store_summary(coll, pattern, info.role, info.source, info.body)
+    return list(dict.fromkeys(edited)), warnings
+
+
+def _redraw_stitches(coll, pattern, add: bool = False) -> None:
+    """The stitch object of a pattern collection drawn again from ``pattern``'s stitches
+    (with ``add``, made when the collection has none)."""
     for obj in coll.objects:
-        if obj.type == "MESH" and PANEL_KEY not in obj and "stitch" in obj.data.attributes and edited:
+        if obj.type == "MESH" and PANEL_KEY not in obj and "stitch" in obj.data.attributes:
             old = obj.data
             obj.data = _stitch_mesh(old.name, pattern, [])
             if old.users == 0:
                 bpy.data.meshes.remove(old)
             obj.data.name = obj.get("seamfit_name", obj.name)
+            return
+    if add and pattern.stitches:
+        with building() as made:
+            _link(coll, _stitch_object(f"{coll.name} stitches", pattern, made), made)
+
+
+def set_stitches(coll, pattern) -> None:
+    """Hold ``pattern`` (the collection's pattern with new stitches) in the collection: the
+    stitch object and the panel's stitch list follow."""
+    _redraw_stitches(coll, pattern, add=True)
     coll[PATTERN_KEY] = compute.pattern_to_json(pattern)
     info = coll.seamfit
     store_summary(coll, pattern, info.role, info.source, info.body)
-    return list(dict.fromkeys(edited)), warnings
 
 
 def remove_collection(coll, foreign_to=None) -> None:

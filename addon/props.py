@@ -228,6 +228,14 @@ _default = _PRESETS[_DEFAULT_PRESET][1]
 _FABRIC = compute.fabric_defaults()
 
 
+class SEAMFIT_PG_run_target(bpy.types.PropertyGroup):
+    """A target body of Grade Size Run: a mesh object of the scene or a body file."""
+    obj: PointerProperty(type=bpy.types.Object, poll=_is_mesh, name="Body",
+                         description="A mesh object of the scene as the target body")
+    filepath: StringProperty(name="Body file", subtype="FILE_PATH",
+                             description="A body file (.obj/.ply, metres, Z up, facing -Y) as the target body")
+
+
 class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     pattern: PointerProperty(type=bpy.types.Collection, poll=_is_pattern, name="Pattern",
                              description="The base pattern that drape and adjust use")
@@ -239,6 +247,9 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     target_body: PointerProperty(type=bpy.types.Object, poll=_is_mesh, name="Target body",
                                  description="The body to grade the pattern to: any mesh object (one of another mesh "
                                              "than the base body, a scan or a character, is registered first)")
+    run_targets: CollectionProperty(type=SEAMFIT_PG_run_target, name="Size run targets",
+                                    description="The bodies Grade Size Run grades to, smallest to largest")
+    active_run_target: IntProperty()
     base_report: PointerProperty(type=SEAMFIT_PG_body_report)
     target_report: PointerProperty(type=SEAMFIT_PG_body_report)
     measure: PointerProperty(type=SEAMFIT_PG_measure)
@@ -313,7 +324,8 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
 
 
 CLASSES = (SEAMFIT_PG_panel_info, SEAMFIT_PG_stitch_info, SEAMFIT_PG_proposed_stitch, SEAMFIT_PG_fit,
-           SEAMFIT_PG_message, SEAMFIT_PG_pattern_info, SEAMFIT_PG_body_report, SEAMFIT_PG_chart_size, SEAMFIT_PG_measure, SEAMFIT_PG_settings)
+           SEAMFIT_PG_message, SEAMFIT_PG_pattern_info, SEAMFIT_PG_body_report, SEAMFIT_PG_chart_size,
+           SEAMFIT_PG_measure, SEAMFIT_PG_run_target, SEAMFIT_PG_settings)
 
 
 def register():

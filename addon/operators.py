@@ -452,8 +452,8 @@ def menu_export(self, context):
     self.layout.operator(SEAMFIT_OT_export_pattern.bl_idname, text="Sewing Pattern (.json, .svg, .dxf)")
 
 
-CLASSES = (SEAMFIT_OT_import_pattern, SEAMFIT_OT_confirm_stitches, SEAMFIT_OT_export_pattern, SEAMFIT_OT_apply_edits, SEAMFIT_OT_check_bodies,
-           SEAMFIT_OT_compare, SEAMFIT_OT_clear_cache)
+CLASSES = (SEAMFIT_OT_import_pattern, SEAMFIT_OT_confirm_stitches, SEAMFIT_OT_export_pattern, SEAMFIT_OT_apply_edits,
+           SEAMFIT_OT_check_bodies, SEAMFIT_OT_compare, SEAMFIT_OT_clear_cache)
 
 
 def register():

@@ -289,8 +289,8 @@ def _draw_results(layout, s):
             box.label(text="   ".join(parts) + " cm")
 
 
-CLASSES = (SEAMFIT_UL_panels, SEAMFIT_UL_stitches, SEAMFIT_UL_proposals, SEAMFIT_PT_patterns, SEAMFIT_PT_bodies, SEAMFIT_PT_measure,
-           SEAMFIT_PT_costs, SEAMFIT_PT_simulation, SEAMFIT_PT_cache, SEAMFIT_PT_run, SEAMFIT_PT_stretch)
+CLASSES = (SEAMFIT_UL_panels, SEAMFIT_UL_stitches, SEAMFIT_UL_proposals, SEAMFIT_PT_patterns, SEAMFIT_PT_bodies,
+           SEAMFIT_PT_measure, SEAMFIT_PT_costs, SEAMFIT_PT_simulation, SEAMFIT_PT_cache, SEAMFIT_PT_run, SEAMFIT_PT_stretch)
 
 
 def register():

@@ -2,7 +2,6 @@
 """DXF-AAMA/ASTM through the add-on: import (one size, a chosen size of a multi-size file),
 proposed stitches confirmed into the scene's pattern, export with seam allowance."""
 import shutil
-from pathlib import Path
 
 import bpy
 import numpy as np

@@ -7,10 +7,8 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import REPO, addon, bezier_world, file_digest
+from helpers import KEIKO, addon, bezier_world, file_digest
 
-DXF_DIR = REPO.parent / "shared" / "data" / "dxf"
-KEIKO = DXF_DIR / "Keiko_skirt.aama.dxf"
 TOL_CM = 0.01           # 0.1 mm
 
 

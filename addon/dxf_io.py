@@ -90,28 +90,31 @@ def check_drapable(pattern) -> None:
     seamfit_module("pattern.seams").check_drapable(pattern)
 
 
-def _inputs(source: str | None) -> list:
-    """The files an export must never replace: the pattern's source and its seams sidecar."""
-    if not source:
-        return []
-    out = [Path(source)]
-    if is_dxf(source):
-        out.append(seamfit_module("pattern.seams").sidecar_path(source))
+def _inputs(*sources: str | None) -> list:
+    """The files an export must never replace: the patterns' sources and their seams sidecars."""
+    out = []
+    for source in filter(None, sources):
+        out.append(Path(source))
+        if is_dxf(source):
+            out.append(seamfit_module("pattern.seams").sidecar_path(source))
     return out
 
 
-def export_dxf(pattern, path: str, flavor: str, allowance_cm: float | None = None, corners: str = "mitre"
-               ) -> list[str]:
+def export_dxf(pattern, path: str, flavor: str, allowance_cm: float | None = None, corners: str = "mitre",
+               protect: tuple = ()) -> list[str]:
     """Write ``pattern`` as DXF-AAMA or DXF-ASTM with ``seamfit convert``'s writer: the DXF
     and, when the pattern has stitches or placements, its seams sidecar, as one set written
-    atomically, never over the pattern's source file or its sidecar. ``allowance_cm``: seam
-    allowance for edges without their own (None: only those measured on reading). Returns
-    the lines saying what was written."""
+    atomically, never over the pattern's source file, the files in ``protect`` (a graded
+    pattern's base) or their sidecars. ``allowance_cm``: seam allowance for edges without
+    their own (None: only those measured on reading). Returns the lines saying what was
+    written."""
     path = Path(path)
+    if not is_dxf(path):
+        raise AddonError(f"{path}: a DXF export's file name must end in .dxf (.aama.dxf, .astm.dxf)")
     convert = seamfit_module("commands.convert")
     args = Namespace(out=path, input=Path(pattern.source_file or path.name), force=True, dxf_out_units="mm",
                      seam_allowance=allowance_cm, corners=corners)
-    return convert._write(pattern, args, convert._out_kind(path), flavor, _inputs(pattern.source_file))
+    return convert._write(pattern, args, "dxf", flavor, _inputs(pattern.source_file, *protect))
 
 
 def corner_styles() -> tuple:

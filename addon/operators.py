@@ -236,9 +236,11 @@ class SEAMFIT_OT_export_pattern(bpy.types.Operator, ExportHelper):
                     labels.insert(0, base)
                 compute.save_svg(patterns, self.filepath, labels=labels)
             elif self.format.startswith("DXF"):
+                base = bpy.data.collections.get(coll.get("seamfit_base", ""))
                 written = dxf_io.export_dxf(pattern, self.filepath, dxf_io.EXPORT_FORMATS[self.format][1],
                                             allowance_cm=float(self.allowance_cm) if self.use_allowance else None,
-                                            corners=self.corners)
+                                            corners=self.corners,
+                                            protect=(base.seamfit.source,) if base is not None else ())
             else:
                 compute.save_pattern(pattern, self.filepath)
         except compute.user_errors() as exc:

@@ -149,3 +149,7 @@ def test_export_never_over_the_input(scene, keiko):
     with pytest.raises(RuntimeError, match="would replace the input"):
         bpy.ops.seamfit.export_pattern(filepath=str(keiko), collection=coll.name, format="DXF_AAMA")
     assert file_digest(keiko) == digest
+    with pytest.raises(RuntimeError, match=r"must end in \.dxf"):
+        bpy.ops.seamfit.export_pattern(filepath=str(keiko.with_name("k.json")), collection=coll.name,
+                                       format="DXF_ASTM")
+    assert sorted(p.name for p in keiko.parent.iterdir()) == [keiko.name]

@@ -29,6 +29,14 @@ def extension_of(path: str) -> str:
 _sizes_memo: dict = {}
 
 
+def _need_ezdxf() -> None:
+    """seamfit reads and writes DXF with ezdxf: a one-line error when it is not installed."""
+    import importlib.util
+    if importlib.util.find_spec("ezdxf") is None:
+        raise AddonError("DXF needs the ezdxf package, which this installation of the seamfit extension lacks; "
+                         "reinstall the extension")
+
+
 def is_dxf(path: str) -> bool:
     return str(path).lower().endswith(".dxf")
 
@@ -55,6 +63,7 @@ def read(path: str, size: str | None):
     """(pattern, proposed stitches) of one size of a DXF. The seams sidecar beside the file
     gives its stitches (and placements) when there is one; otherwise the library proposes
     stitches (sidecar entries, each ``confirmed: false``) for the user to confirm."""
+    _need_ezdxf()
     io = seamfit_module("pattern.io")
     sizes = io.read_dxf_size_file(path, size=size)
     pattern = seamfit_module("pattern.dxf_sizes").one_size(sizes, size)
@@ -108,6 +117,7 @@ def export_dxf(pattern, path: str, flavor: str, allowance_cm: float | None = Non
     pattern's base) or their sidecars. ``allowance_cm``: seam allowance for edges without
     their own (None: only those measured on reading). Returns the lines saying what was
     written."""
+    _need_ezdxf()
     path = Path(path)
     if not is_dxf(path):
         raise AddonError(f"{path}: a DXF export's file name must end in .dxf (.aama.dxf, .astm.dxf)")
@@ -130,6 +140,7 @@ def write_size_run(patterns: list, labels: list[str], base_index: int, dxf_path:
     """A graded size run as ``seamfit grade-run`` writes it: every size in one DXF-ASTM
     (``nest.dxf``'s form) and the base with grade-rule numbers plus its RUL table (``.rul``
     beside it), written as one set."""
+    _need_ezdxf()
     from seamfit.output_set import OutputSet
     sizes = seamfit_module("pattern.dxf_sizes")
     path = Path(dxf_path)

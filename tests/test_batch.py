@@ -80,6 +80,17 @@ def test_manifest_problems_name_the_job_and_the_field(tmp_path, capsys):
                                         "'many' is not a whole number"]
 
 
+def test_many_manifest_problems_are_capped_without_pointing_at_validate(tmp_path, capsys):
+    from seamfit import cli
+    jobs = [{"id": f"j{k}", "target_body": str(B10), "edge_lenght": 3} for k in range(cli.MAX_ERROR_LINES + 3)]
+    manifest = _write(tmp_path / "m.json", {"defaults": {"pattern": str(PATTERN), "base_body": str(B0)},
+                                            "jobs": jobs})
+    assert main(["batch", str(manifest), "--out", str(tmp_path / "out")]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == cli.MAX_ERROR_LINES + 1
+    assert lines[-1] == "seamfit batch: error: ... and 3 more"   # validate does not read manifests
+
+
 def test_csv_manifest_rows_are_checked_by_row_and_job(tmp_path, capsys):
     manifest = tmp_path / "m.csv"
     with open(manifest, "w", newline="") as f:

@@ -97,8 +97,9 @@ def _print_errors(command: str, lines: list[str]) -> None:
     for line in lines[:MAX_ERROR_LINES]:
         print(f"seamfit {command}: error: {line}", file=sys.stderr)
     if len(lines) > MAX_ERROR_LINES:
-        print(f"seamfit {command}: error: ... and {len(lines) - MAX_ERROR_LINES} more "
-              "(seamfit validate lists them all)", file=sys.stderr)
+        # validate checks input files; a batch manifest's problems have no such command
+        hint = "" if command == "batch" else " (seamfit validate lists them all)"
+        print(f"seamfit {command}: error: ... and {len(lines) - MAX_ERROR_LINES} more{hint}", file=sys.stderr)
 
 
 def _install_sigterm():

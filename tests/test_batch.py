@@ -253,9 +253,12 @@ def test_a_stopped_batch_ends_its_jobs_cleanly_and_keeps_what_is_done(tmp_path, 
     proc = subprocess.Popen([sys.executable, "-m", "seamfit", "batch", str(manifest), "--out", str(out),
                              "--cpus", "1", *SMALL], env=env, stderr=subprocess.PIPE, text=True)
     marker = out / "running/size10.json"
-    deadline = time.time() + 120
-    while time.time() < deadline and not (marker.exists() and list(out.glob(".size10.seamfit-tmp-*"))):
-        time.sleep(0.1)
+    # Ray's start and the job's precompute can take minutes on a loaded 2-core machine
+    deadline = time.time() + 600
+    while (time.time() < deadline and proc.poll() is None
+           and not (marker.exists() and list(out.glob(".size10.seamfit-tmp-*")))):
+        time.sleep(0.05)
+    assert proc.poll() is None and marker.exists(), "the job never got under way"
     job_pid = json.loads(marker.read_text())["pid"]
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)

@@ -502,3 +502,13 @@ def test_many_pattern_errors_are_capped_with_a_count(tmp_path, capsys):
     assert len(lines) == cli.MAX_ERROR_LINES + 1
     assert lines[-1] == (f"seamfit mesh: error: ... and {n - cli.MAX_ERROR_LINES} more "
                          "(seamfit validate lists them all)")
+
+
+def test_batch_without_ray_says_how_to_install_it(tmp_path, capsys, monkeypatch):
+    # ray is the optional extra seamfit[batch]: a plain install gets a one-line answer
+    monkeypatch.setitem(sys.modules, "ray", None)      # `import ray` raises ImportError
+    manifest = write(tmp_path, "m.json", {"defaults": {"pattern": str(PENCIL), "base_body": str(B0)},
+                                          "jobs": [{"id": "size10", "target_body": str(B1)}]})
+    code, _, err, secs = run(capsys, "batch", manifest, "--out", tmp_path / "out")
+    assert_refused(code, err, secs, "batch", "seamfit[batch]", "not installed")
+    assert not (tmp_path / "out").exists()

@@ -267,4 +267,6 @@ def test_a_stopped_batch_ends_its_jobs_cleanly_and_keeps_what_is_done(tmp_path, 
     assert not list(out.glob(".*seamfit-tmp*")) and not (out / "size10").exists(), "no half-written set"
     rows = json.loads((out / "summary.json").read_text())["jobs"]
     assert [(r["id"], r["state"]) for r in rows] == [("size10", "not run")]
-    assert not json.loads((out / "status.json").read_text())["finished"]
+    status = json.loads((out / "status.json").read_text())
+    assert not status["finished"] and status["running"] == 0 and status["running_jobs"] == []
+    assert not list((out / "running").glob("*.json")), "no marker says a job still runs"

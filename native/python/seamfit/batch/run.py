@@ -223,6 +223,13 @@ def _drive(ray, out, jobs, todo, final, status, res, env, say) -> int:
         _stop_processes(out)         # each cleans up its temporary folder, as grade does on Ctrl-C
         for ref in pending:
             ray.cancel(ref, force=True)
+        # Ray may have started a queued job while the first ones ended: stop it too, and let
+        # no marker or status say a job still runs.
+        _stop_processes(out, wait_s=2.0)
+        _clear_markers(out)
+        for job_id, state in list(status.state.items()):
+            if state == "running":
+                status.state[job_id] = "queued"
         _finish(out, jobs, final, status, say, interrupted=True)
         raise
     return _finish(out, jobs, final, status, say)
@@ -251,6 +258,22 @@ def _stop_processes(out: Path, wait_s: float = 10.0) -> None:
     while pids and time.time() < deadline:
         pids = [p for p in pids if Path(f"/proc/{p}").exists()]
         time.sleep(0.1)
+
+
+def _clear_markers(out: Path) -> None:
+    """Remove the running markers of this machine's job processes that are gone."""
+    import json
+    import socket
+    for marker in (out / "running").glob("*.json"):
+        try:
+            m = json.loads(marker.read_text())
+            if m.get("host") != socket.gethostname():
+                continue
+            alive = b"seamfit.batch.job" in Path(f"/proc/{int(m['pid'])}/cmdline").read_bytes()
+        except (OSError, ValueError, KeyError, TypeError):
+            alive = False
+        if not alive:
+            marker.unlink(missing_ok=True)
 
 
 def _mark_running(out: Path, status) -> None:

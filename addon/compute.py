@@ -68,13 +68,28 @@ def edges_in_order(panel):
         return None
 
 
+# Under this key of a panel's changes: its edges split at added points and joined at deleted ones.
+POINTS_KEY = "points"
+
+
 def edit_pattern(pattern, changes: dict):
     """``pattern`` with new edge curves: ``changes[panel][edge id]`` = dict(kind, p0, p1,
-    ctrl, arc); outlines sampled again, stitches kept on their edges."""
+    ctrl, arc), after the splits and joins listed under ``changes[panel][POINTS_KEY]``
+    (dict(op="split", edge, at, new_id, point) or dict(op="join", edges, point), in order);
+    outlines sampled again, stitches kept on their edges."""
     from seamfit.pattern.model import Edge
+    points = seamfit_module("pattern.points")
+    for name, per in changes.items():
+        for op in per.get(POINTS_KEY, []):
+            # The edits validate the whole pattern once they are all made.
+            if op["op"] == "split":
+                pattern, _ = points.split_edge(pattern, name, op["edge"], op["at"], new_id=op["new_id"],
+                                               point=op["point"], check=False)
+            else:
+                pattern = points.join_edges(pattern, name, *op["edges"], point=op["point"], check=False)
     new = {name: {eid: Edge(id=eid, start=0, end=0, kind=d["kind"], p0=tuple(d["p0"]), p1=tuple(d["p1"]),
                             ctrl=[tuple(c) for c in d.get("ctrl", [])], arc=d.get("arc"))
-                  for eid, d in per.items()}
+                  for eid, d in per.items() if eid != POINTS_KEY}
            for name, per in changes.items() if per}
     return seamfit_module("pattern.edit").edit_edges(pattern, new)
 

@@ -232,3 +232,128 @@ def test_an_edited_curve_regrades(grading_scene):
     new = {p for p, _, _ in disk.cache_entries()} - entries
     assert new and all(p.parent.name == "drape" for p in new)
     assert second.report["base_drape"]["cached"] is False
+
+
+def _edit_points(obj, points, op):
+    """Select the curve points ``points`` in edit mode and run a curve operator, as an artist does."""
+    bpy.context.view_layer.objects.active = obj
+    obj.select_set(True)
+    bpy.ops.object.mode_set(mode="EDIT")
+    for i, p in enumerate(obj.data.splines[0].bezier_points):
+        p.select_control_point = p.select_left_handle = p.select_right_handle = i in points
+    assert op() == {"FINISHED"}
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+
+def _add_point(obj, edge_id):
+    """Subdivide the segment an edge is drawn with: a new point in its middle, the curve kept."""
+    j = list(obj["seamfit_segments"]).index(edge_id)
+    _edit_points(obj, (j, j + 1), lambda: bpy.ops.curve.subdivide(number_cuts=1))
+    return j + 1
+
+
+def _stitched_edge(pattern, kind):
+    """A panel and an edge of that kind which a stitch side covers whole."""
+    return next((pn, e) for pn in pattern.panels for e in _order(pn) if e.kind == kind and any(
+        side.panel == pn.name and side.range == (e.start, e.end) for s in pattern.stitches for side in (s.a, s.b)))
+
+
+def _side_lengths(pattern, name):
+    from seamfit.pattern import range_indices
+    pn = pattern.panel(name)
+    return [float(np.linalg.norm(np.diff(pn.outline_cm[range_indices(side.range, pn.n_vertices)], axis=0),
+                                 axis=1).sum()) for s in pattern.stitches for side in (s.a, s.b) if side.panel == name]
+
+
+def test_an_added_point_splits_its_edge_and_keeps_its_stitches(scene):
+    from seamfit.pattern import curves, validate_pattern
+    coll, objs = _imported(PENCIL)
+    original = _read(PENCIL)
+    pn, e = _stitched_edge(original, "line")
+    obj = objs[pn.name]
+    k = len(obj.data.splines[0].bezier_points)
+    _add_point(obj, e.id)
+    assert bpy.ops.seamfit.apply_edits() == {"FINISHED"}
+    edited = addon().scene_io.pattern_from_collection(coll)
+    assert validate_pattern(edited).ok
+    ep = edited.panel(pn.name)
+    new_id = max(x.id for x in pn.edges) + 1
+    edges = {x.id: x for x in ep.edges}
+    assert sorted(edges) == sorted([x.id for x in pn.edges] + [new_id])
+    first, second = edges[e.id], edges[new_id]
+    assert first.kind == second.kind == "line" and first.end == second.start
+    assert np.allclose(first.p0, e.p0, atol=1e-4) and np.allclose(second.p1, e.p1, atol=1e-4)
+    assert np.allclose(first.p1, 0.5 * (np.array(e.p0) + np.array(e.p1)), atol=1e-4)
+    assert curves.distance_to_curve(e, ep.outline_cm[[first.start, second.start, second.end]]).max() < 1e-4
+    # The stitches sew the same stretches: the same lengths within 1 mm, the same ends.
+    assert np.allclose(_side_lengths(edited, pn.name), _side_lengths(original, pn.name), atol=0.1)
+    for s0, s1 in zip(original.stitches, edited.stitches):
+        for a, b in ((s0.a, s1.a), (s0.b, s1.b)):
+            p0, p1 = original.panel(a.panel), edited.panel(b.panel)
+            assert np.allclose(p1.outline_cm[list(b.range)], p0.outline_cm[list(a.range)], atol=1e-3)
+    # Drawn again with the new point: reading back changes nothing more.
+    assert len(obj.data.splines[0].bezier_points) == k + 1
+    assert list(obj["seamfit_segments"]).count(new_id) == 1
+    assert _pattern_dict(addon().scene_io.pattern_from_collection(coll)) == _pattern_dict(edited)
+
+
+def test_a_deleted_plain_point_joins_its_edges(scene):
+    coll, objs = _imported(PENCIL)
+    original = _read(PENCIL)
+    pn, e = _stitched_edge(original, "line")
+    obj = objs[pn.name]
+    j = _add_point(obj, e.id)
+    assert bpy.ops.seamfit.apply_edits() == {"FINISHED"}
+    _edit_points(obj, (j,), lambda: bpy.ops.curve.delete(type="VERT"))
+    assert bpy.ops.seamfit.apply_edits() == {"FINISHED"}
+    back = addon().scene_io.pattern_from_collection(coll)
+    bp = back.panel(pn.name)
+    assert sorted(x.id for x in bp.edges) == sorted(x.id for x in pn.edges)
+    joined = next(x for x in bp.edges if x.id == e.id)
+    assert joined.kind == "line"
+    assert np.allclose(joined.p0, e.p0, atol=1e-4) and np.allclose(joined.p1, e.p1, atol=1e-4)
+    assert _stitch_edges(back) == _stitch_edges(original)
+    assert np.allclose(_side_lengths(back, pn.name), _side_lengths(original, pn.name), atol=0.1)
+    assert len(obj.data.splines[0].bezier_points) == len(list(obj["seamfit_segments"]))
+
+
+def test_a_deleted_stitch_end_is_refused_in_one_line(scene):
+    from seamfit.pattern.points import point_roles
+    coll, objs = _imported(PENCIL)
+    original = _read(PENCIL)
+    pn, e = _stitched_edge(original, "line")
+    assert any("stitch" in r for r in point_roles(original, pn.name, e.start))
+    obj = objs[pn.name]
+    j = list(obj["seamfit_segments"]).index(e.id)
+    _edit_points(obj, (j,), lambda: bpy.ops.curve.delete(type="VERT"))
+    stored = coll["seamfit_pattern"]
+    before = scene_fingerprint()
+    with pytest.raises(RuntimeError) as info:
+        bpy.ops.seamfit.apply_edits()
+    message = str(info.value).strip()
+    assert "\n" not in message
+    assert f"panel {pn.name!r}: curve point {j} " in message and "cannot be deleted: it is an end of stitch" in message
+    assert coll["seamfit_pattern"] == stored and scene_fingerprint() == before
+
+
+def test_an_added_point_regrades(grading_scene):
+    """An edge split at an added point re-grades like any edit."""
+    s = grading_scene
+    cache, solve = addon().cache.CACHE, addon().solve
+    assert bpy.ops.seamfit.adjust() == {"FINISHED"}
+    first = solve.last_result("adjust")
+    pattern = _read(PENCIL)
+    pn = next(p for p in pattern.panels if any(e.kind == "quadratic" for e in p.edges))
+    quad = next(e for e in pn.edges if e.kind == "quadratic")
+    _add_point(addon().scene_io.panel_objects(s.pattern)[pn.name], quad.id)
+    assert bpy.ops.seamfit.apply_edits() == {"FINISHED"}
+    assert bpy.ops.seamfit.adjust() == {"FINISHED"}
+    second = solve.last_result("adjust")
+    from seamfit.pattern.sewpat import pattern_from_dict
+    import json
+    base = pattern_from_dict(json.loads(second.base_pattern_json)).panel(pn.name)
+    new_id = max(x.id for x in pn.edges) + 1
+    first_half, second_half = (next(e for e in base.edges if e.id == i) for i in (quad.id, new_id))
+    assert first_half.kind == "quadratic" and first_half.end == second_half.start
+    assert second.pattern_json != first.pattern_json
+    assert cache.misses["grade"] == 2

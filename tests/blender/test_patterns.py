@@ -161,13 +161,17 @@ def test_export_takes_edits_from_the_curves(scene, tmp_out):
         assert np.array_equal(a.outline_cm, b.outline_cm)
 
 
-def test_export_refuses_a_changed_point_count(scene, tmp_out):
+def test_export_refuses_a_point_added_on_top_of_another(scene, tmp_out):
     bpy.ops.seamfit.import_pattern(filepath=str(PENCIL))
     (coll,) = _pattern_collections()
     obj = next(o for o in coll.objects if "seamfit_panel" in o)
-    obj.data.splines[0].bezier_points.add(1)
+    pts = obj.data.splines[0].bezier_points
+    pts.add(1)
+    for attr in ("co", "handle_left", "handle_right"):
+        setattr(pts[-1], attr, getattr(pts[0], attr))
     out = tmp_out / "x.json"
-    with pytest.raises(RuntimeError, match="instead of adding or deleting them"):
+    with pytest.raises(RuntimeError, match=rf"panel {obj['seamfit_panel']!r}: added curve point {len(pts) - 1} "
+                                           r"\(at .* cm\) is on an end of edge \d+, where a point already is"):
         bpy.ops.seamfit.export_pattern(filepath=str(out), format="SEWPAT")
     assert not out.exists()
 

@@ -297,6 +297,22 @@ def test_an_added_point_splits_its_edge_and_keeps_its_stitches(scene):
     assert _pattern_dict(addon().scene_io.pattern_from_collection(coll)) == _pattern_dict(edited)
 
 
+
+def test_an_added_point_on_an_arc_splits_it_into_two_arcs(scene):
+    coll, objs = _imported(CIRCLE)
+    original = _read(CIRCLE)
+    pn, e = _stitched_edge(original, "arc")
+    _add_point(objs[pn.name], e.id)                 # in its first quarter turn
+    assert bpy.ops.seamfit.apply_edits() == {"FINISHED"}
+    edited = addon().scene_io.pattern_from_collection(coll)
+    edges = {x.id: x for x in edited.panel(pn.name).edges}
+    first, second = edges[e.id], edges[max(x.id for x in pn.edges) + 1]
+    assert first.kind == second.kind == "arc" and first.end == second.start
+    for half in (first, second):
+        assert np.allclose(half.arc["center"], e.arc["center"], atol=0.05)
+        assert half.arc["radius"] == pytest.approx(e.arc["radius"], abs=0.05)
+    assert np.allclose(_side_lengths(edited, pn.name), _side_lengths(original, pn.name), atol=0.1)
+
 def test_a_deleted_plain_point_joins_its_edges(scene):
     coll, objs = _imported(PENCIL)
     original = _read(PENCIL)

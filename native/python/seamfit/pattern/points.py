@@ -86,7 +86,8 @@ def split_edge(pattern: Pattern, panel_name: str, edge_id: int, at, *, new_id: i
         if measured:
             x.length_cm = round(curves.length(x), _LENGTH_DIGITS)
     panel.edges.insert(panel.edges.index(e) + 1, new)
-    panel.nodes.append(v)
+    if v not in panel.nodes:
+        panel.nodes.append(v)
     n = panel.n_vertices
     for s in out.stitches:
         for side in (s.a, s.b):

@@ -3,12 +3,23 @@
 seamfit, a summary of the pattern they hold."""
 from __future__ import annotations
 
+import sys
+
 import bpy
 import numpy as np
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
 
 from . import compute, methods, presets, scene_io
+
+# Blender 4.2 keeps a reference to every PropertyGroup class after unregistering it (4.5 to
+# those used as pointer or collection types), and through their methods and callbacks to
+# these globals, bpy among them. Held by its own globals, this module lives as long as they
+# do, so Python clears them at exit as it clears every live module's, and frees bpy: bpy 4.2
+# and 4.5 run Blender's exit only then. Without it, whether bpy was freed depended on the
+# order the add-on's modules happened to go in; when it was not, Blender freed its Python
+# panels after Python had ended, and the process crashed (SIGSEGV) at exit.
+_THIS_MODULE = sys.modules[__name__]
 
 
 class SEAMFIT_PG_panel_info(bpy.types.PropertyGroup):

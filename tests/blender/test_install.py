@@ -1,5 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The built zip installs like any extension and brings its own seamfit."""
+import os
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 import bpy
@@ -86,3 +90,25 @@ def test_lean_portable_wheels(installed, addon_zip):
     for unused in ("stats", "io", "signal", "interpolate", "ndimage"):
         assert not (scipy_dir / unused).exists(), unused
     assert not list(scipy_dir.glob("*/tests"))
+
+
+def test_a_python_with_the_extension_exits_cleanly(addon_zip, tmp_path):
+    """A Python with bpy that enabled the extension ends with its own exit status, and frees
+    bpy on the way (Blender 4.2 runs its exit only then: else it frees its Python panels after
+    Python has ended, SIGSEGV). Python's -v log says when bpy is freed."""
+    from helpers import REPO
+    script = tmp_path / "enable_and_exit.py"
+    script.write_text(
+        "import sys\nimport bpy\n"
+        "bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)\n"
+        f"r = bpy.ops.extensions.package_install_files(filepath={str(addon_zip)!r}, repo='user_default', "
+        "enable_on_install=True)\n"
+        "assert r == {'FINISHED'} and 'bl_ext.user_default.seamfit' in bpy.context.preferences.addons\n"
+        "sys.exit(3)\n")
+    # Its own user folder (the installed extension, about 300 MB), removed afterwards.
+    with tempfile.TemporaryDirectory(prefix="seamfit-exit-user-") as user:
+        env = dict(os.environ, BLENDER_USER_RESOURCES=user)
+        proc = subprocess.run([sys.executable, "-v", str(REPO / "tests" / "blender" / "run_isolated.py"),
+                               str(script)], env=env, capture_output=True, text=True)
+    assert proc.returncode == 3, proc.stderr[-3000:]
+    assert "# destroy bpy\n" in proc.stderr

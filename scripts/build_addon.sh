@@ -2,7 +2,8 @@
 # Build the seamfit Blender extension: dist/seamfit-<version>.zip holds addon/ and, as
 # wheels, seamfit itself (a manylinux wheel made by auditwheel, with its OpenMP runtime
 # inside) and the packages it needs that Blender does not ship (scipy, cut to the
-# subpackages seamfit imports, and gmsh; scripts/addon_wheels.py). The zip is made by
+# subpackages seamfit imports, and gmsh; scripts/addon_wheels.py; ezdxf and its own needs
+# as they come). The zip is made by
 # Blender's own extension builder (bl_pkg, from the bpy module).
 #
 #   PYTHON       python that builds the seamfit wheel (pybind11, scikit-build-core,
@@ -34,6 +35,8 @@ platforms=(--platform manylinux_2_28_x86_64 --platform manylinux_2_24_x86_64
            --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64)
 scipy_req="scipy>=1.13,<1.16"
 gmsh_req="gmsh==4.15.2"
+# DXF import and export (ezdxf, MIT) and what it needs beyond Blender's numpy.
+dxf_reqs=("ezdxf>=1.1" "fonttools>=4.40" "pyparsing>=3.0" "typing_extensions>=4.6")
 
 wheels=build/addon-wheels
 mkdir -p "$wheels/deps" "$out"
@@ -56,6 +59,12 @@ if ! ls "$wheels"/deps/scipy-*.whl >/dev/null 2>&1 || ! ls "$wheels"/deps/gmsh-*
   "$py" -m pip download -q --no-deps --only-binary :all: --python-version "$pyver" \
       "${platforms[@]}" -d "$wheels/deps" "$scipy_req" "$gmsh_req"
 fi
+
+if ! ls "$wheels"/deps/ezdxf/ezdxf-*.whl >/dev/null 2>&1; then
+  "$py" -m pip download -q --no-deps --only-binary :all: --python-version "$pyver" \
+      "${platforms[@]}" -d "$wheels/deps/ezdxf" "${dxf_reqs[@]}"
+fi
+cp "$wheels"/deps/ezdxf/*.whl "$stage/wheels/"
 
 "$py" scripts/addon_wheels.py gmsh "$wheels"/deps/gmsh-*.whl "$stage/wheels"
 "$py" scripts/addon_wheels.py scipy "$wheels"/deps/scipy-*.whl "$stage/wheels" native/python/seamfit

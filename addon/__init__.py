@@ -3,10 +3,10 @@
 bodies. Blender glue only; every computation is done by the ``seamfit`` package, which the
 extension bundles as a wheel."""
 
-from . import bodies, operators, overlay, prefs, props, solve, ui
+from . import bodies, operators, overlay, prefs, props, size_run, solve, ui
 from .cache import CACHE
 
-_MODULES = (prefs, props, operators, solve, bodies, ui, overlay)
+_MODULES = (prefs, props, operators, solve, bodies, ui, size_run, overlay)
 
 
 def register():

@@ -720,6 +720,12 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
         return res
     res = CACHE.get("grade", key, make)
     job.update(stage="done", fraction=1.0, eta=0.0)
+    return grade_output(inp, res)
+
+
+def grade_output(inp: RunInputs, res) -> GradeOutput:
+    """The scene's view of seamfit's GradeResult ``res`` for the inputs ``inp``: the graded
+    pattern named for the target, the garment on the target with its stretch, the fit."""
     import copy
     graded = copy.deepcopy(res.pattern)     # the cached result stays as seamfit made it
     graded.body_id = inp.target.name

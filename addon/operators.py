@@ -7,10 +7,10 @@ from pathlib import Path
 
 import bpy
 import numpy as np
-from bpy.props import BoolProperty, EnumProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
-from . import compute, presets, scene_io
+from . import compute, dxf_io, presets, scene_io
 from .cache import CACHE
 
 
@@ -50,20 +50,49 @@ def pattern_name(pattern, filepath: str) -> str:
     return " ".join(parts) if parts else Path(filepath).stem
 
 
+_size_items: list = []      # Blender needs the enum's strings kept alive
+ONE_SIZE = "ONE_SIZE"       # the size enum of a file that holds one size
+
+
+def _file_sizes(self, context):
+    """The sizes of the chosen DXF, its sample size first (the default)."""
+    labels, sample = dxf_io.file_sizes(self.filepath) if dxf_io.is_dxf(self.filepath) else ([], None)
+    if sample in labels:
+        labels = [sample] + [lab for lab in labels if lab != sample]
+    _size_items[:] = [(lab, lab + (" (sample size)" if lab == sample else ""), f"Import size {lab}")
+                      for lab in labels] or [(ONE_SIZE, "One size", "The file holds one size")]
+    return _size_items
+
+
 class SEAMFIT_OT_import_pattern(bpy.types.Operator, ImportHelper):
-    """Import a sewing pattern (sewpat-1 or GarmentCode JSON) as flat panel curves"""
+    """Import a sewing pattern (sewpat-1, GarmentCode JSON or DXF-AAMA/ASTM) as flat panel curves"""
     bl_idname = "seamfit.import_pattern"
     bl_label = "Import Sewing Pattern"
     bl_options = {"REGISTER", "UNDO"}
 
     filename_ext = ".json"
-    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+    filter_glob: StringProperty(default="*.json;*.dxf", options={"HIDDEN"})
+    size: EnumProperty(name="Size", items=_file_sizes,
+                       description="Of a multi-size DXF, the size to import (its pieces' Size text)")
+
+    def check(self, context):
+        return True         # the size list follows the file picked
+
+    def draw(self, context):
+        if dxf_io.is_dxf(self.filepath) and self.size != ONE_SIZE:
+            self.layout.prop(self, "size")
 
     def execute(self, context):
+        size = None if self.size == ONE_SIZE else self.size
         try:
-            pattern = compute.load_pattern(self.filepath)
+            proposals, notes = [], []
+            if dxf_io.is_dxf(self.filepath):
+                pattern, proposals = dxf_io.read(self.filepath, size)
+                notes = dxf_io.notes(pattern)
+            else:
+                pattern = compute.load_pattern(self.filepath)
             warnings = compute.check_pattern(pattern)
-            name = pattern_name(pattern, self.filepath)
+            name = pattern_name(pattern, self.filepath) + (f" {size}" if size else "")
             coll = scene_io.build_pattern(context, pattern, name, source=self.filepath,
                                           body=pattern.body_id or "")
         except compute.user_errors() as exc:
@@ -71,46 +100,117 @@ class SEAMFIT_OT_import_pattern(bpy.types.Operator, ImportHelper):
             return {"CANCELLED"}
         s = context.scene.seamfit
         s.pattern = coll
+        coll.seamfit.size = size or ""
+        _store_proposals(coll, proposals)
         # The preset for the garment's kind, as `seamfit grade --preset auto` picks it;
         # strengths set by hand (Custom) are left alone.
         kind = presets.for_garment(pattern.garment_type)
         if kind is not None and s.strength_preset != "CUSTOM":
             s.strength_preset = kind
-        for w in warnings:
+        for w in [*notes, *warnings]:
             self.report({"WARNING"}, w)
+        more = f", {len(proposals)} proposed: accept them in the Patterns panel" if proposals else ""
         self.report({"INFO"}, f"Imported {coll.name}: {len(pattern.panels)} panels, "
-                              f"{len(pattern.stitches)} stitches")
+                              f"{len(pattern.stitches)} stitches{more}")
         return {"FINISHED"}
 
 
+def _store_proposals(coll, proposals: list[dict]) -> None:
+    import json
+    info = coll.seamfit
+    info.proposals.clear()
+    for entry in proposals:
+        it = info.proposals.add()
+        it.entry = json.dumps(entry, sort_keys=True)
+        it.name = f"{entry['a']['panel']} - {entry['b']['panel']}"
+        it.panel_a, it.panel_b = entry["a"]["panel"], entry["b"]["panel"]
+        it.length_a_cm, it.length_b_cm = entry.get("length_a_cm", 0.0), entry.get("length_b_cm", 0.0)
+        it.why = "; ".join([entry.get("why", ""), *entry.get("notch_warnings", [])]).strip("; ")
+
+
+class SEAMFIT_OT_confirm_stitches(bpy.types.Operator):
+    """Sew the accepted proposed stitches into the pattern (the DXF file is never changed)"""
+    bl_idname = "seamfit.confirm_stitches"
+    bl_label = "Confirm Stitches"
+    bl_options = {"REGISTER", "UNDO"}
+
+    collection: StringProperty(name="Pattern", description="Name of the pattern collection (the active "
+                               "pattern when empty)")
+
+    def execute(self, context):
+        import json
+        try:
+            coll = _pattern_collection(context, self.collection)
+            chosen = [json.loads(p.entry) for p in coll.seamfit.proposals if p.accept]
+            if not chosen:
+                raise compute.AddonError(f"{coll.name}: no proposed stitch accepted; tick the ones to sew")
+            for entry in chosen:
+                entry["confirmed"] = True
+            pattern = dxf_io.apply_choices(scene_io.pattern_from_collection(coll), chosen)
+            scene_io.set_stitches(coll, pattern)
+        except compute.user_errors() as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        coll.seamfit.proposals.clear()
+        self.report({"INFO"}, f"{coll.name}: {len(pattern.stitches)} stitches confirmed")
+        return {"FINISHED"}
+
+
+_FORMATS = {
+    "SEWPAT": ("sewpat-1 (.json)", "seamfit's pattern format: outlines, curves, stitches, placement"),
+    "SVG": ("SVG (.svg)", "A drawing of the panels in centimetres"),
+    "DXF_AAMA": ("DXF-AAMA (.aama.dxf)", "The AAMA pattern exchange DXF (seams sidecar beside it)"),
+    "DXF_ASTM": ("DXF-ASTM (.astm.dxf)", "ASTM D6673 DXF (seams sidecar beside it)"),
+}
+
+
 class SEAMFIT_OT_export_pattern(bpy.types.Operator, ExportHelper):
-    """Export a pattern of the scene (as its curves show it now) to sewpat-1 JSON or SVG"""
+    """Export a pattern of the scene (as its curves show it now) to sewpat-1 JSON, SVG or
+    DXF-AAMA/ASTM"""
     bl_idname = "seamfit.export_pattern"
     bl_label = "Export Sewing Pattern"
     bl_options = {"REGISTER"}
 
     filename_ext = ".json"
-    filter_glob: StringProperty(default="*.json;*.svg", options={"HIDDEN"})
+    filter_glob: StringProperty(default="*.json;*.svg;*.dxf", options={"HIDDEN"})
     collection: StringProperty(name="Pattern", description="Name of the pattern collection (the active "
                                "pattern when empty)")
-    format: EnumProperty(name="Format", items=[
-        ("SEWPAT", "sewpat-1 (.json)", "seamfit's pattern format: outlines, curves, stitches, placement"),
-        ("SVG", "SVG (.svg)", "A drawing of the panels in centimetres"),
-    ], default="SEWPAT")
+    format: EnumProperty(name="Format", items=[(k, *v) for k, v in _FORMATS.items()], default="SEWPAT")
     with_base: BoolProperty(name="Include base pattern", default=True,
                             description="For a graded pattern, draw the base pattern under it in the SVG")
+    use_allowance: BoolProperty(name="Seam allowance", default=False,
+                                description="DXF: draw the cut line this far outside the seam line on every edge "
+                                            "without an allowance of its own (seamfit convert --seam-allowance)")
+    allowance_cm: FloatProperty(name="Width (cm)", default=1.0, min=0.0, soft_max=5.0, precision=2,
+                                description="Seam allowance in cm")
+    corners: EnumProperty(name="Corners", items=[(c, f"{c.capitalize()}d", f"Seam allowance corners {c}d "
+                                                  f"(seamfit convert --corners {c})")
+                                                 for c in dxf_io.corner_styles()],
+                          description="How the seam allowance turns a corner")
 
     def check(self, context):
         # Keep the file extension in step with the chosen format.
-        ext = ".svg" if self.format == "SVG" else ".json"
+        ext = dxf_io.EXPORT_FORMATS[self.format][0]
         changed = self.filename_ext != ext
         self.filename_ext = ext
         if self.filepath:
-            root, old = os.path.splitext(self.filepath)
-            if old.lower() in (".json", ".svg") and old.lower() != ext:
-                self.filepath = root + ext
+            old = dxf_io.extension_of(self.filepath)
+            if old and old != ext:
+                self.filepath = self.filepath[: -len(old)] + ext
                 changed = True
         return changed
+
+    def draw(self, context):
+        layout = self.layout
+        layout.prop(self, "format")
+        if self.format == "SVG":
+            layout.prop(self, "with_base")
+        elif self.format.startswith("DXF"):
+            layout.prop(self, "use_allowance")
+            col = layout.column()
+            col.enabled = self.use_allowance
+            col.prop(self, "allowance_cm")
+            col.prop(self, "corners")
 
     def _collection(self, context):
         if self.collection:
@@ -127,6 +227,7 @@ class SEAMFIT_OT_export_pattern(bpy.types.Operator, ExportHelper):
         try:
             coll = self._collection(context)
             pattern = scene_io.pattern_from_collection(coll)
+            written = [self.filepath]
             if self.format == "SVG":
                 patterns, labels = [pattern], [coll.name]
                 base = coll.get("seamfit_base")
@@ -134,12 +235,18 @@ class SEAMFIT_OT_export_pattern(bpy.types.Operator, ExportHelper):
                     patterns.insert(0, scene_io.pattern_from_collection(bpy.data.collections[base]))
                     labels.insert(0, base)
                 compute.save_svg(patterns, self.filepath, labels=labels)
+            elif self.format.startswith("DXF"):
+                base = bpy.data.collections.get(coll.get("seamfit_base", ""))
+                written = dxf_io.export_dxf(pattern, self.filepath, dxf_io.EXPORT_FORMATS[self.format][1],
+                                            allowance_cm=float(self.allowance_cm) if self.use_allowance else None,
+                                            corners=self.corners,
+                                            protect=(base.seamfit.source,) if base is not None else ())
             else:
                 compute.save_pattern(pattern, self.filepath)
         except compute.user_errors() as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Exported {coll.name} to {self.filepath}")
+        self.report({"INFO"}, f"Exported {coll.name} to {', '.join(written)}")
         return {"FINISHED"}
 
 
@@ -340,15 +447,15 @@ class SEAMFIT_OT_clear_cache(bpy.types.Operator):
 
 
 def menu_import(self, context):
-    self.layout.operator(SEAMFIT_OT_import_pattern.bl_idname, text="Sewing Pattern (.json)")
+    self.layout.operator(SEAMFIT_OT_import_pattern.bl_idname, text="Sewing Pattern (.json, .dxf)")
 
 
 def menu_export(self, context):
-    self.layout.operator(SEAMFIT_OT_export_pattern.bl_idname, text="Sewing Pattern (.json, .svg)")
+    self.layout.operator(SEAMFIT_OT_export_pattern.bl_idname, text="Sewing Pattern (.json, .svg, .dxf)")
 
 
-CLASSES = (SEAMFIT_OT_import_pattern, SEAMFIT_OT_export_pattern, SEAMFIT_OT_apply_edits, SEAMFIT_OT_check_bodies,
-           SEAMFIT_OT_compare, SEAMFIT_OT_clear_cache)
+CLASSES = (SEAMFIT_OT_import_pattern, SEAMFIT_OT_confirm_stitches, SEAMFIT_OT_export_pattern, SEAMFIT_OT_apply_edits,
+           SEAMFIT_OT_check_bodies, SEAMFIT_OT_compare, SEAMFIT_OT_clear_cache)
 
 
 def register():

@@ -36,6 +36,18 @@ class SEAMFIT_PG_stitch_info(bpy.types.PropertyGroup):
     gathered: BoolProperty(name="Gathered")
 
 
+class SEAMFIT_PG_proposed_stitch(bpy.types.PropertyGroup):
+    """A stitch seamfit proposes for a pattern read from a DXF (which has none): the user
+    accepts it, then Confirm Stitches puts the accepted ones into the pattern."""
+    entry: StringProperty(description="The proposal as seamfit's seams sidecar entry (JSON)")
+    accept: BoolProperty(name="Accept", default=False, description="Sew these two runs together")
+    panel_a: StringProperty(name="Side A")
+    panel_b: StringProperty(name="Side B")
+    length_a_cm: FloatProperty(name="Length A (cm)")
+    length_b_cm: FloatProperty(name="Length B (cm)")
+    why: StringProperty(name="Why", description="Why seamfit proposes it")
+
+
 class SEAMFIT_PG_fit(bpy.types.PropertyGroup):
     """Ease (garment girth minus body girth) of a garment on a body, in cm."""
     valid: BoolProperty(default=False)
@@ -64,6 +76,9 @@ class SEAMFIT_PG_pattern_info(bpy.types.PropertyGroup):
     iterations: IntProperty(name="Iterations")
     method: StringProperty(name="Method", description="The grading method that made this pattern")
     warnings: CollectionProperty(type=SEAMFIT_PG_message)
+    size: StringProperty(name="Size", description="The size read from a multi-size DXF")
+    proposals: CollectionProperty(type=SEAMFIT_PG_proposed_stitch)
+    active_proposal: IntProperty()
 
 
 class SEAMFIT_PG_body_report(bpy.types.PropertyGroup):
@@ -224,6 +239,14 @@ _default = _PRESETS[_DEFAULT_PRESET][1]
 _FABRIC = compute.fabric_defaults()
 
 
+class SEAMFIT_PG_run_target(bpy.types.PropertyGroup):
+    """A target body of Grade Size Run: a mesh object of the scene or a body file."""
+    obj: PointerProperty(type=bpy.types.Object, poll=_is_mesh, name="Body",
+                         description="A mesh object of the scene as the target body")
+    filepath: StringProperty(name="Body file", subtype="FILE_PATH",
+                             description="A body file (.obj/.ply, metres, Z up, facing -Y) as the target body")
+
+
 class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     pattern: PointerProperty(type=bpy.types.Collection, poll=_is_pattern, name="Pattern",
                              description="The base pattern that drape and adjust use")
@@ -235,6 +258,9 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     target_body: PointerProperty(type=bpy.types.Object, poll=_is_mesh, name="Target body",
                                  description="The body to grade the pattern to: any mesh object (one of another mesh "
                                              "than the base body, a scan or a character, is registered first)")
+    run_targets: CollectionProperty(type=SEAMFIT_PG_run_target, name="Size run targets",
+                                    description="The bodies Grade Size Run grades to, smallest to largest")
+    active_run_target: IntProperty()
     base_report: PointerProperty(type=SEAMFIT_PG_body_report)
     target_report: PointerProperty(type=SEAMFIT_PG_body_report)
     measure: PointerProperty(type=SEAMFIT_PG_measure)
@@ -308,8 +334,9 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
                                  description="How Compare lays the base and graded panels out")
 
 
-CLASSES = (SEAMFIT_PG_panel_info, SEAMFIT_PG_stitch_info, SEAMFIT_PG_fit, SEAMFIT_PG_message, SEAMFIT_PG_pattern_info,
-           SEAMFIT_PG_body_report, SEAMFIT_PG_chart_size, SEAMFIT_PG_measure, SEAMFIT_PG_settings)
+CLASSES = (SEAMFIT_PG_panel_info, SEAMFIT_PG_stitch_info, SEAMFIT_PG_proposed_stitch, SEAMFIT_PG_fit,
+           SEAMFIT_PG_message, SEAMFIT_PG_pattern_info, SEAMFIT_PG_body_report, SEAMFIT_PG_chart_size,
+           SEAMFIT_PG_measure, SEAMFIT_PG_run_target, SEAMFIT_PG_settings)
 
 
 def register():

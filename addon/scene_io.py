@@ -267,17 +267,37 @@ def apply_edits(coll) -> tuple[list[str], list[str]]:
         obj.matrix_world = placement_matrix(pn.placement)      # a scale is in the outline now
         obj["seamfit_corners"] = [int(i) for i in pn.corners]
         panel_curves.remember(obj, owner)
+    if edited:
+        _redraw_stitches(coll, pattern)
+    coll[PATTERN_KEY] = compute.pattern_to_json(pattern)
+    info = coll.seamfit
+    store_summary(coll, pattern, info.role, info.source, info.body)
+    return list(dict.fromkeys(edited)), warnings
+
+
+def _redraw_stitches(coll, pattern, add: bool = False) -> None:
+    """The stitch object of a pattern collection drawn again from ``pattern``'s stitches
+    (with ``add``, made when the collection has none)."""
     for obj in coll.objects:
-        if obj.type == "MESH" and PANEL_KEY not in obj and "stitch" in obj.data.attributes and edited:
+        if obj.type == "MESH" and PANEL_KEY not in obj and "stitch" in obj.data.attributes:
             old = obj.data
             obj.data = _stitch_mesh(old.name, pattern, [])
             if old.users == 0:
                 bpy.data.meshes.remove(old)
             obj.data.name = obj.get("seamfit_name", obj.name)
+            return
+    if add and pattern.stitches:
+        with building() as made:
+            _link(coll, _stitch_object(f"{coll.name} stitches", pattern, made), made)
+
+
+def set_stitches(coll, pattern) -> None:
+    """Hold ``pattern`` (the collection's pattern with new stitches) in the collection: the
+    stitch object and the panel's stitch list follow."""
+    _redraw_stitches(coll, pattern, add=True)
     coll[PATTERN_KEY] = compute.pattern_to_json(pattern)
     info = coll.seamfit
     store_summary(coll, pattern, info.role, info.source, info.body)
-    return list(dict.fromkeys(edited)), warnings
 
 
 def remove_collection(coll, foreign_to=None) -> None:
@@ -667,11 +687,11 @@ def build_drape(context, out, name: str, body: str, made: list, body_object=None
 
 
 def build_graded(context, out, name: str, base_collection: str, body: str, made: list, body_object=None,
-                 edge_length_cm: float = 0.0) -> bpy.types.Collection:
+                 edge_length_cm: float = 0.0, parent=None) -> bpy.types.Collection:
     """A collection with the graded pattern's panel curves and stitches, and the garment
     sewn from it draped on the target body (``out``: compute.GradeOutput)."""
     pattern = compute.pattern_from_json(out.pattern_json, source="graded pattern")
-    coll = build_pattern(context, pattern, name, role="graded", body=body, made=made)
+    coll = build_pattern(context, pattern, name, role="graded", body=body, made=made, parent=parent)
     coll["seamfit_base"] = base_collection
     if out.garment is not None:
         _garment_with_map(coll, f"{name} garment", out.garment, made, body_object, edge_length_cm)
@@ -683,6 +703,45 @@ def build_graded(context, out, name: str, base_collection: str, body: str, made:
         it = coll.seamfit.warnings.add()
         it.name = w
     return coll
+
+
+SIZE_RUN_KEY = "seamfit_size_run"  # collection: the sizes of a graded size run (JSON)
+
+
+def build_size_run(context, out, name: str, base_collection: str, made: list, body_objects: dict,
+                   edge_length_cm: float = 0.0) -> bpy.types.Collection:
+    """A collection holding one graded collection per size of a size run (``out``:
+    size_run_job.SizeRunOutput), each as Adjust Pattern makes it."""
+    coll = _new_collection(context, name, made)
+    coll.seamfit.role = "size_run"
+    coll[SIZE_RUN_KEY] = json.dumps({"labels": out.labels, "base_index": out.base_index, "base": base_collection})
+    for k, label in enumerate(out.labels):
+        if k != out.base_index:
+            build_graded(context, out.sizes[label], f"{label} {base_collection}", base_collection, body=label,
+                         made=made, body_object=body_objects.get(label), edge_length_cm=edge_length_cm,
+                         parent=coll)
+    return coll
+
+
+def size_run_patterns(coll) -> tuple[list, list[str], int]:
+    """(patterns in size order as the scene shows them, size names, index of the base) of
+    a size run's collection; the base pattern is read from its own collection."""
+    if SIZE_RUN_KEY not in coll:
+        raise compute.AddonError(f"collection {coll.name!r} holds no size run")
+    run = json.loads(coll[SIZE_RUN_KEY])
+    base = bpy.data.collections.get(run["base"])
+    if base is None:
+        raise compute.AddonError(f"{coll.name!r}: its base pattern {run['base']!r} is no longer in the scene")
+    by_body = {c.seamfit.body: c for c in coll.children if is_pattern_collection(c)}
+    patterns = []
+    for k, label in enumerate(run["labels"]):
+        if k == run["base_index"]:
+            patterns.append(pattern_from_collection(base))
+        elif label in by_body:
+            patterns.append(pattern_from_collection(by_body[label]))
+        else:
+            raise compute.AddonError(f"{coll.name!r}: the collection of size {label!r} was deleted")
+    return patterns, list(run["labels"]), int(run["base_index"])
 
 
 # ---------------------------------------------------------------------------

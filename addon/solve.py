@@ -15,7 +15,7 @@ from typing import Any, Callable
 
 import bpy
 
-from . import compute, jobs, methods, props, scene_io
+from . import compute, dxf_io, jobs, methods, props, scene_io
 from .operators import capture_body
 
 
@@ -45,6 +45,7 @@ def _run_inputs(context, with_target: bool) -> compute.RunInputs:
     if with_target and s.target_body is None:
         raise compute.AddonError("pick the target body in the Bodies panel")
     pattern = scene_io.pattern_from_collection(coll)
+    dxf_io.check_drapable(pattern)      # a DXF pattern: its stitches confirmed, its panels placed
     depsgraph = context.evaluated_depsgraph_get()
     cfg = props.settings_dict(s)
     return compute.RunInputs(

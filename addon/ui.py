@@ -23,6 +23,14 @@ class SEAMFIT_UL_stitches(bpy.types.UIList):
         row.label(text=f"{item.length_a_cm:.1f} / {item.length_b_cm:.1f} cm")
 
 
+class SEAMFIT_UL_proposals(bpy.types.UIList):
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        row = layout.row(align=True)
+        row.prop(item, "accept", text="")
+        row.label(text=f"{item.panel_a} – {item.panel_b}")
+        row.label(text=f"{item.length_a_cm:.1f} / {item.length_b_cm:.1f} cm")
+
+
 class _SeamfitPanel:
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
@@ -42,15 +50,18 @@ class SEAMFIT_PT_patterns(_SeamfitPanel, bpy.types.Panel):
         row.operator("seamfit.build_mesh", text="", icon="MOD_TRIANGULATE")
         coll = s.pattern
         if coll is None:
-            layout.label(text="No pattern: import a sewpat-1 or GarmentCode file", icon="INFO")
+            layout.label(text="No pattern: import a sewpat-1, GarmentCode or DXF file", icon="INFO")
             return
         info = coll.seamfit
         if info.source:
-            layout.label(text=bpy.path.basename(info.source), icon="FILE")
+            layout.label(text=bpy.path.basename(info.source) + (f", size {info.size}" if info.size else ""),
+                         icon="FILE")
         layout.label(text=f"Panels ({len(info.panels)})")
         layout.template_list("SEAMFIT_UL_panels", "", info, "panels", info, "active_panel", rows=3)
         layout.label(text=f"Stitches ({len(info.stitches)}): length of side A / side B")
         layout.template_list("SEAMFIT_UL_stitches", "", info, "stitches", info, "active_stitch", rows=3)
+        if len(info.proposals):
+            _draw_proposals(layout.box(), coll)
         layout.prop(s, "show_overlay")
         layout.operator("seamfit.apply_edits", icon="CURVE_BEZCURVE").collection = coll.name
         row = layout.row(align=True)
@@ -58,6 +69,20 @@ class SEAMFIT_PT_patterns(_SeamfitPanel, bpy.types.Panel):
         op.format, op.collection = "SEWPAT", coll.name
         op = row.operator("seamfit.export_pattern", text="Export SVG")
         op.format, op.collection = "SVG", coll.name
+        row = layout.row(align=True)
+        for fmt, text in (("DXF_AAMA", "Export DXF-AAMA"), ("DXF_ASTM", "Export DXF-ASTM")):
+            op = row.operator("seamfit.export_pattern", text=text, icon="EXPORT" if fmt == "DXF_AAMA" else "NONE")
+            op.format, op.collection = fmt, coll.name
+
+
+def _draw_proposals(box, coll):
+    """The stitches seamfit proposes for a DXF pattern, to accept and confirm."""
+    info = coll.seamfit
+    box.label(text=f"Proposed stitches ({len(info.proposals)}): tick the ones to sew", icon="QUESTION")
+    box.template_list("SEAMFIT_UL_proposals", "", info, "proposals", info, "active_proposal", rows=3)
+    if 0 <= info.active_proposal < len(info.proposals):
+        box.label(text=info.proposals[info.active_proposal].why, icon="INFO")
+    box.operator("seamfit.confirm_stitches", icon="CHECKMARK").collection = coll.name
 
 
 def _draw_body(layout, s, prop, rep):
@@ -264,8 +289,8 @@ def _draw_results(layout, s):
             box.label(text="   ".join(parts) + " cm")
 
 
-CLASSES = (SEAMFIT_UL_panels, SEAMFIT_UL_stitches, SEAMFIT_PT_patterns, SEAMFIT_PT_bodies, SEAMFIT_PT_measure,
-           SEAMFIT_PT_costs, SEAMFIT_PT_simulation, SEAMFIT_PT_cache, SEAMFIT_PT_run, SEAMFIT_PT_stretch)
+CLASSES = (SEAMFIT_UL_panels, SEAMFIT_UL_stitches, SEAMFIT_UL_proposals, SEAMFIT_PT_patterns, SEAMFIT_PT_bodies,
+           SEAMFIT_PT_measure, SEAMFIT_PT_costs, SEAMFIT_PT_simulation, SEAMFIT_PT_cache, SEAMFIT_PT_run, SEAMFIT_PT_stretch)
 
 
 def register():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import os
 from pathlib import Path
 
 import bpy
@@ -16,6 +17,9 @@ BODICE = SAMPLES / "patterns" / "fs_bodice" / "size06" / "pattern.json"
 BODY_BASE = SAMPLES / "bodies" / "women_size06.obj"
 BODY_TARGET = SAMPLES / "bodies" / "women_size10.obj"
 MODULE = "bl_ext.user_default.seamfit"
+# Valentina's DXF exports of shared patterns (read-only; no seams sidecar beside them).
+DXF_DIR = Path(os.environ.get("SEAMFIT_SHARED_DATA", REPO.parent / "shared" / "data")) / "dxf"
+KEIKO = DXF_DIR / "Keiko_skirt.aama.dxf"
 
 # A coarse, short grading (seconds), the same for the add-on, the command line and the batch script.
 GRADE_EDGE_CM, GRADE_SDF_M, GRADE_OUTER, GRADE_EVERY = 4.0, 0.005, 8, 4

@@ -3,7 +3,7 @@
 recorder that checks every property and operator a panel names really exists)."""
 import bpy
 
-from helpers import BODY_BASE, PENCIL, addon, import_obj
+from helpers import BODY_BASE, KEIKO, PENCIL, addon, import_obj
 
 
 class Recorder:
@@ -54,7 +54,7 @@ class _OpProps:
 def _draw_all(context):
     log = []
     for name in ("SEAMFIT_PT_patterns", "SEAMFIT_PT_bodies", "SEAMFIT_PT_measure", "SEAMFIT_PT_costs", "SEAMFIT_PT_simulation",
-                 "SEAMFIT_PT_cache", "SEAMFIT_PT_run"):
+                 "SEAMFIT_PT_cache", "SEAMFIT_PT_run", "SEAMFIT_PT_size_run"):
         panel = getattr(bpy.types, name)
         holder = type("P", (), {"layout": Recorder(log)})()
         panel.draw(holder, context)
@@ -67,7 +67,19 @@ def test_panels_draw_empty_scene(scene):
     assert any("No pattern" in t for t in labels)
     ops = {e[1] for e in log if e[0] == "operator"}
     assert {"seamfit.import_pattern", "seamfit.check_bodies", "seamfit.drape", "seamfit.adjust",
-            "seamfit.clear_cache", "seamfit.load_size_chart", "seamfit.body_from_measurements"} <= ops
+            "seamfit.clear_cache", "seamfit.load_size_chart", "seamfit.body_from_measurements",
+            "seamfit.grade_size_run", "seamfit.run_target_add", "seamfit.run_target_add_file"} <= ops
+
+
+def test_patterns_panel_lists_the_proposed_stitches_of_a_dxf(scene):
+    bpy.ops.seamfit.import_pattern(filepath=str(KEIKO))
+    log = _draw_all(bpy.context)
+    lists = {e[1]: e[2] for e in log if e[0] == "list"}
+    assert lists == {"panels": 2, "stitches": 0, "proposals": 3, "run_targets": 0}
+    ops = [e[1] for e in log if e[0] == "operator"]
+    assert "seamfit.confirm_stitches" in ops and ops.count("seamfit.export_pattern") == 4
+    labels = [e[1] for e in log if e[0] == "label"]
+    assert any(t.startswith("lengths ") for t in labels)      # why the active proposal is proposed
 
 
 def test_panels_draw_pattern_and_bodies(scene):
@@ -77,7 +89,7 @@ def test_panels_draw_pattern_and_bodies(scene):
     bpy.ops.seamfit.check_bodies()
     log = _draw_all(bpy.context)
     lists = {e[1]: e[2] for e in log if e[0] == "list"}
-    assert lists == {"panels": 4, "stitches": 20}
+    assert lists == {"panels": 4, "stitches": 20, "run_targets": 0}
     labels = [e[1] for e in log if e[0] == "label"]
     assert any(t.startswith("Height ") for t in labels)
     assert any(t.startswith("Bust ") and "Waist" in t and "Hip" in t for t in labels)

@@ -92,6 +92,12 @@ def _apply(pattern: Pattern, panel: Panel, edits: dict[int, Edge], spacing_cm: f
         return int(new_index[i]) if 0 <= i < n else i      # out of range: validation reports it
 
     panel.outline_cm = np.asarray(pts, dtype=float).reshape(-1, 2)
+    reindex(pattern, panel, m)
+
+
+def reindex(pattern: Pattern, panel: Panel, m) -> None:
+    """Move every outline index of ``panel`` held outside its edges (nodes, corners,
+    landmarks, the stitch sides on it) through ``m`` (old index -> new index)."""
     panel.nodes = [m(i) for i in panel.nodes]
     panel.corners = [m(i) for i in panel.corners]
     panel.landmarks = {k: m(i) for k, i in panel.landmarks.items()}

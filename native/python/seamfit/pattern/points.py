@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import PatternError
 from . import curves
-from .edit import _LENGTH_DIGITS, arc_through, cubic_through, edges_in_order, edit_edges
+from .edit import _LENGTH_DIGITS, arc_through, cubic_through, edges_in_order, edit_edges, reindex
 from .model import Edge, Pattern
 from .refit import side_length_cm
 from .validate import CURVE_OUTLINE_TOL_CM, validate_pattern
@@ -70,13 +70,7 @@ def split_edge(pattern: Pattern, panel_name: str, edge_id: int, at, *, new_id: i
         panel.outline_cm = np.insert(o, ins, q, axis=0)
         for x in panel.edges:
             x.start, x.end = m(x.start), m(x.end)
-        panel.nodes = [m(i) for i in panel.nodes]
-        panel.corners = [m(i) for i in panel.corners]
-        panel.landmarks = {name: m(i) for name, i in panel.landmarks.items()}
-        for s in out.stitches:
-            for side in (s.a, s.b):
-                if side.panel == panel.name:
-                    side.range = (m(side.range[0]), m(side.range[1]))
+        reindex(out, panel, m)
     e.kind, e.p0, e.p1, e.ctrl, e.arc = first.kind, first.p0, first.p1, first.ctrl, first.arc
     e.end = v
     new = Edge(id=new_id, start=v, end=end, kind=second.kind, p0=second.p0, p1=second.p1, ctrl=second.ctrl,

@@ -505,7 +505,7 @@ def test_many_pattern_errors_are_capped_with_a_count(tmp_path, capsys):
 
 
 def test_batch_without_ray_says_how_to_install_it(tmp_path, capsys, monkeypatch):
-    # ray is the optional extra seamfit[batch]: a plain install gets a one-line answer
+    # an install without ray (e.g. --no-deps) gets a one-line answer
     monkeypatch.setitem(sys.modules, "ray", None)      # `import ray` raises ImportError
     manifest = write(tmp_path, "m.json", {"defaults": {"pattern": str(PENCIL), "base_body": str(B0)},
                                           "jobs": [{"id": "size10", "target_body": str(B1)}]})

@@ -72,8 +72,8 @@ def run(args) -> int:
     try:
         import ray  # noqa: F401
     except ImportError:
-        raise SeamfitError("seamfit batch runs on Ray, which is not installed: pip install 'seamfit[batch]' "
-                           "(or pip install ray)") from None
+        raise SeamfitError("seamfit batch runs on Ray, which is not installed (seamfit depends on it; a copy "
+                           "installed without its dependencies lacks it): pip install 'seamfit[batch]' (or pip install ray)") from None
     res = Resources(threads=args.threads_per_job, gpus=args.gpus_per_job, memory_gb=args.memory_per_job,
                     retries=args.retries)
     return run_batch(args.manifest, jobs, args.out, address=args.address, cpus=args.cpus, res=res,

@@ -194,6 +194,20 @@ def ease_detail(res: dict) -> list[str]:
     return out
 
 
+def ease_levels(res: dict) -> list[str]:
+    """Median ease error per level over the cases whose garment goes around it there."""
+    lv = ("bust", "waist", "hip")
+    out = ["| method | " + " | ".join(f"{k} cm (cases)" for k in lv) + " |", "|---|" + "---:|" * len(lv)]
+    for m in method_names(res):
+        cells = []
+        for k in lv:
+            v = [x for x in (((entry(c, m).get("ease_error") or {}).get("levels") or {}).get(k)
+                             for c in res["cases"] if _ok(entry(c, m))) if x is not None]
+            cells.append(f"{statistics.median(v):.2f} ({len(v)})" if v else "-")
+        out.append(f"| {m} | " + " | ".join(cells) + " |")
+    return out
+
+
 def failures(res: dict) -> list[str]:
     out = []
     for c in res["cases"]:
@@ -273,11 +287,10 @@ Why the worst cases are where they are, and what the numbers can and cannot say:
 * **Circle skirts** are fitted only at the waist; their hem landmarks sit 30-60 cm from the waist,
   so a small angle difference of the flare shows as centimetres at the hem, while the ease (at the
   waist) can be right.
-* **Ease at a garment edge.** Ease is taken at the body's bust / waist / hip levels wherever the
-  garment reaches them. A bodice block that ends at the waist, or a waistband straddling it, is cut
-  there through a partial band, so ease values at such a level (several cm at a bodice's waist, even
-  for the base on its own body) say more about where the edge hangs than about the fit; read the
-  ease error at the level the garment really encloses (bust for bodices, hip for skirts and trousers).
+* **Ease is taken as a tape takes it.** At the body's bust / waist / hip levels, around the
+  torso under the arms (the cloth nearest the torso, not the hull around both sleeves: a
+  t-shirt's bust ease read 35-49 cm that way), and only where the garment's section goes around
+  the torso (a bodice block whose back ends above the waist has no waist ease).
 * **Budget.** A run with coarse settings (few outer iterations, 3-4 cm mesh, 5 mm SDF) stops
   before convergence; `converged` and the iteration count are kept per case in results.json.
 """
@@ -309,6 +322,8 @@ def markdown(res: dict, title_note: str | None, plot_rel: str, notes: str | None
         "transfer, optimization, refit); for scaling, the scaling and curve refit only.",
         "", f"The paper (section 8.3) reports a max landmark difference under {PAPER_MAX_CM} cm against "
         "hand grading.", "", "## Summary", "", *summary(res), "",
+        "Median ease error per level, over the cases whose garment goes around that level:", "",
+        *ease_levels(res), "",
         f"![max landmark error per case]({plot_rel})", "",
         "## Per garment family", "", *family_table(res), "",
         "## Per garment and body", "", *garment_tables(res),

@@ -1,13 +1,23 @@
 """Fit measures a pattern maker reads: ease = garment girth minus body girth.
 
 Girths are tape girths, as the bodies are measured: the perimeter of the convex hull
-of the horizontal cross-section (a tape bridges hollows and folds).
+of the horizontal cross-section (a tape bridges hollows and folds). The body's tape goes
+around the torso under the arms, so the garment's tape does too: where the body's section
+has arm loops besides the torso's, only the cloth nearest the torso counts, not the hull
+around both sleeves. A garment encloses a level only where its section goes around the
+torso there: a bodice whose back ends above the waist has no waist girth.
 """
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError, cKDTree
 
-from ..body.measure import _hull_perimeter, body_measurements, cross_section_girth
+from ..body.measure import _hull_perimeter, _Slicer, body_measurements
+
+# A garment goes around the torso at a level when no torso point lies farther than this
+# (m) outside its section's hull: cloth rests a few mm out, a missing panel leaves
+# centimetres of body uncovered.
+ENCLOSE_TOL_M = 0.01
 
 
 def mesh_cross_section(x: np.ndarray, triangles: np.ndarray, z: float) -> np.ndarray:
@@ -24,26 +34,70 @@ def mesh_cross_section(x: np.ndarray, triangles: np.ndarray, z: float) -> np.nda
     return np.concatenate(pts) if pts else np.zeros((0, 2))
 
 
-def garment_girth(x: np.ndarray, triangles: np.ndarray, z: float) -> float:
-    """Tape girth (m) of the garment at height z, NaN where it does not reach."""
-    pts = mesh_cross_section(x, triangles, z)
-    if len(pts) < 3:
-        return float("nan")
-    return float(_hull_perimeter(pts))
+def hull(points):
+    """2-D convex hull, or None for degenerate input."""
+    try:
+        return ConvexHull(points)
+    except (QhullError, ValueError):
+        return None
+
+
+def torso_cloth(slicer: _Slicer, z: float, body_pts: np.ndarray, garment_pts: np.ndarray):
+    """Where the body's section at z has arm loops besides the torso's: (torso ids into
+    ``body_pts``, the garment points nearest the torso, their hull). None where the
+    section is one loop or the split leaves too little."""
+    if len(body_pts) < 3 or len(garment_pts) < 3:
+        return None
+    ids = slicer.torso_ids(z)
+    if not 3 <= len(ids) < len(body_pts):
+        return None
+    on_torso = np.zeros(len(body_pts), dtype=bool)
+    on_torso[ids] = True
+    _, nearest = cKDTree(body_pts).query(garment_pts)
+    kept = garment_pts[on_torso[nearest]]
+    h = hull(kept) if len(kept) >= 3 else None
+    return None if h is None else (ids, kept, h)
+
+
+def goes_around(garment_hull, body_pts: np.ndarray) -> bool:
+    """Whether the garment's section (its hull) goes around the body's section points."""
+    eq = garment_hull.equations
+    return bool((body_pts @ eq[:, :2].T + eq[:, 2]).max() <= ENCLOSE_TOL_M)
+
+
+def garment_tape(slicer: _Slicer, x: np.ndarray, triangles: np.ndarray, z: float) -> tuple[float, float]:
+    """(garment tape girth, body tape girth) in m at height z, both around the torso;
+    NaN where the garment does not go around the torso there."""
+    garment_pts = mesh_cross_section(x, triangles, z)
+    body_pts = slicer.cut(z)[3]
+    if len(garment_pts) < 3 or len(body_pts) < 3:
+        return float("nan"), float("nan")
+    torso = torso_cloth(slicer, z, body_pts, garment_pts)
+    if torso is not None:
+        ids, _, hg = torso
+        body_pts = body_pts[ids]
+    else:
+        hg = hull(garment_pts)
+        if hg is None:
+            return float("nan"), float("nan")
+    if not goes_around(hg, body_pts):
+        return float("nan"), float("nan")
+    return _hull_perimeter(hg.points[hg.vertices]), slicer.girth(z)
 
 
 def ease_report(body, x: np.ndarray, triangles: np.ndarray, levels: dict | None = None) -> dict:
     """Ease (cm) at bust, waist and hip: garment girth minus body girth at the body's own
-    measuring levels. None where the garment does not cover that level."""
+    measuring levels, both around the torso. None where the garment does not go around
+    the torso at that level."""
     if levels is None:
         levels = body_measurements(body)["levels_z_m"]
+    slicer = _Slicer(body)
     out = {}
     for name in ("bust", "waist", "hip"):
         z = levels.get(name)
         if z is None:
             out[name] = None
             continue
-        gg = garment_girth(x, triangles, z)
-        bg = cross_section_girth(body, z)
+        gg, bg = garment_tape(slicer, x, triangles, z)
         out[name] = None if not (np.isfinite(gg) and np.isfinite(bg)) else round(100.0 * (gg - bg), 2)
     return out

@@ -27,11 +27,12 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import spsolve
-from scipy.spatial import ConvexHull, Delaunay, QhullError, cKDTree
+from scipy.spatial import Delaunay
 
 from ..body.measure import _Slicer, body_measurements
 from .costs import sample_sdf
-from .fit import mesh_cross_section
+from .fit import hull as _hull
+from .fit import mesh_cross_section, torso_cloth
 
 # A garment vertex this close to the body (m) is held by it (the drape rests on the
 # contact barrier, about 1-3 mm out; hanging cloth is centimetres away).
@@ -122,36 +123,9 @@ def section_loops(mesh, x, z: float) -> int:
     return len(np.unique(label[used]))
 
 
-def _hull(points):
-    try:
-        return ConvexHull(points)
-    except (QhullError, ValueError):
-        return None
-
-
 def _hull_perimeter(h) -> float:
     p = h.points[h.vertices]
     return float(np.linalg.norm(np.diff(np.vstack([p, p[:1]]), axis=0), axis=1).sum())
-
-
-def _torso_part(slicer: _Slicer, z: float, pts: np.ndarray, garment_pts: np.ndarray):
-    """Below the armpit the body's section has arm loops besides the torso's, and a top's
-    section has its sleeves around them. A chest tape goes around the torso under the
-    arms, so the garment's girth there is that of the cloth nearest the torso (not the
-    hull around both sleeves), and the body girth it encloses is the torso's alone.
-    (torso ids into ``pts``, kept garment points, their hull), or None where the section
-    is one loop or the split leaves too little."""
-    if len(pts) < 3:
-        return None
-    ids = slicer.torso_ids(z)
-    if not 3 <= len(ids) < len(pts):
-        return None
-    on_torso = np.zeros(len(pts), dtype=bool)
-    on_torso[ids] = True
-    _, nearest = cKDTree(pts).query(garment_pts)
-    kept = garment_pts[on_torso[nearest]]
-    h = _hull(kept) if len(kept) >= 3 else None
-    return None if h is None else (ids, kept, h)
 
 
 def _enclosed_growth(slicer: _Slicer, target_v: np.ndarray, z: float, garment_pts: np.ndarray):
@@ -165,7 +139,7 @@ def _enclosed_growth(slicer: _Slicer, target_v: np.ndarray, z: float, garment_pt
     if hg is None:
         return np.nan, np.nan, np.nan
     a, b, t, pts = slicer.cut(z)
-    torso = _torso_part(slicer, z, pts, garment_pts)
+    torso = torso_cloth(slicer, z, pts, garment_pts)
     if torso is not None:
         ids, garment_pts, hg = torso
         a, b, t, pts = a[ids], b[ids], t[ids], pts[ids]

@@ -1,0 +1,73 @@
+"""Ease as a tape measures it (seamfit.opt.fit): around the torso under the arms, and only
+where the garment goes around the torso."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from seamfit.body import body_measurements, load_body
+from seamfit.body.measure import _Slicer
+from seamfit.opt.fit import ease_report, mesh_cross_section
+
+BODY = Path(__file__).resolve().parents[1] / "sample_files" / "bodies" / "women_size06.obj"
+N = 64
+
+
+def tube(centre, r, z, arc=2 * np.pi, h=0.05):
+    """A vertical tube of cloth (or an open arc of it) from z - h to z + h."""
+    closed = arc >= 2 * np.pi
+    a = np.linspace(0, arc, N, endpoint=not closed)
+    ring = np.c_[centre[0] + r * np.cos(a), centre[1] + r * np.sin(a)]
+    V = np.vstack([np.c_[ring, np.full(N, z - h)], np.c_[ring, np.full(N, z + h)]])
+    F = []
+    for i in range(N if closed else N - 1):
+        j = (i + 1) % N
+        F += [[i, j, N + i], [j, N + j, N + i]]
+    return V, np.array(F)
+
+
+@pytest.fixture(scope="module")
+def at_bust():
+    body = load_body(BODY)
+    levels = body_measurements(body)["levels_z_m"]
+    s = _Slicer(body)
+    z = levels["bust"]
+    keep, _ = s.torso(z)
+    loops = [(any(segs is k for k in keep), segs.reshape(-1, 2)) for segs in s.loops(z)]
+    assert sum(t for t, _ in loops) == 1 and len(loops) == 3      # torso and two arms
+    # each loop wrapped in a tube 1 cm out: a t-shirt's body and its sleeves
+    tubes = [(t, p.mean(axis=0), np.linalg.norm(p - p.mean(axis=0), axis=1).max() + 0.01) for t, p in loops]
+    return body, levels, s, z, tubes
+
+
+def assemble(parts):
+    V, F, off = [], [], 0
+    for v, f in parts:
+        V.append(v)
+        F.append(f + off)
+        off += len(v)
+    return np.vstack(V), np.vstack(F)
+
+
+def test_the_tape_goes_around_the_torso_not_the_sleeves(at_bust):
+    body, levels, s, z, tubes = at_bust
+    x, tri = assemble([tube(c, r, z) for _, c, r in tubes])
+    (_, c, r), = [t for t in tubes if t[0]]
+    torso_girth = 2 * N * r * np.sin(np.pi / N)          # the body tube's polygon
+    ease = ease_report(body, x, tri, levels)
+    assert ease["bust"] == pytest.approx(100 * (torso_girth - s.girth(z)), abs=0.01)
+    from seamfit.body.measure import _hull_perimeter
+    around_sleeves = 100 * (_hull_perimeter(mesh_cross_section(x, tri, z)) - s.girth(z))
+    assert around_sleeves > ease["bust"] + 10            # what the hull round everything reads
+    assert ease["waist"] is None and ease["hip"] is None  # the tubes end above them
+
+
+def test_a_garment_that_does_not_go_around_has_no_girth_there(at_bust):
+    body, levels, s, z, tubes = at_bust
+    (_, c, r), = [t for t in tubes if t[0]]
+    x, tri = tube(c, r, z, arc=np.pi)                    # the front half only
+    assert ease_report(body, x, tri, levels)["bust"] is None
+    x, tri = tube(c, r, z, arc=1.9 * np.pi)              # a gap a tape bridges
+    assert ease_report(body, x, tri, levels)["bust"] is not None

@@ -181,3 +181,28 @@ def test_report_serialises(samples):
     table = rep.table().splitlines()
     assert table[0].split()[:2] == ["panel", "match"] and len(table) == len(rep.panels) + 2
     assert table[-1].startswith("all") and f"{rep.max_cm:.2f}" in table[-1]
+
+
+def _scaled(pattern, factor, angle_deg=0.0, shift=(0.0, 0.0)):
+    """Each panel scaled about its landmarks' centroid, then turned and moved rigidly."""
+    out = copy.deepcopy(pattern)
+    a = math.radians(angle_deg)
+    rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    for p in out.panels:
+        o = np.asarray(p.outline_cm, float)
+        c = o[sorted(set(p.landmarks.values()))].mean(axis=0)
+        p.outline_cm = (c + factor * (o - c)) @ rot.T + np.asarray(shift)
+    return out
+
+
+@pytest.mark.parametrize("garment", GARMENTS)
+def test_change_captured_is_the_fraction_of_the_drafted_change(samples, garment):
+    from seamfit.pattern import change_captured
+    base = samples[(garment, "size06")]
+    truth = _scaled(base, 1.10, angle_deg=7.0, shift=(3.0, -2.0))
+    assert change_captured(base, base, truth) == pytest.approx(0.0, abs=1e-9)
+    assert change_captured(truth, base, truth) == pytest.approx(1.0, abs=1e-9)
+    # a result that grew 4 % where the draft grew 10 % made 0.4 of the change, wherever it lies
+    assert change_captured(_scaled(base, 1.04, angle_deg=-20.0, shift=(50.0, 9.0)), base, truth) == \
+        pytest.approx(0.4, abs=1e-9)
+    assert change_captured(base, base, copy.deepcopy(base)) is None   # nothing to capture

@@ -15,7 +15,7 @@ import numpy as np
 
 from seamfit.body import load_body
 from seamfit.body.measure import body_measurements
-from seamfit.pattern import baseline_errors, landmark_errors, load_pattern, save_pattern
+from seamfit.pattern import baseline_errors, change_captured, landmark_errors, load_pattern, save_pattern
 from seamfit.pattern.scale import proportional_scale
 
 EASE_LEVELS = ("bust", "waist", "hip")
@@ -150,7 +150,8 @@ def run_case(data: Path, garment: str, body: str, base_id: str, methods: list[st
         t0 = time.perf_counter()
         scaled_pattern, ratios = proportional_scale(base, m0, m1)
         scaled = {"ok": True, "seconds": time.perf_counter() - t0, "ratios": ratios,
-                  **_score(landmark_errors(scaled_pattern, truth))}
+                  **_score(landmark_errors(scaled_pattern, truth)),
+                  "change_captured": change_captured(scaled_pattern, base, truth)}
         if save_dir is not None:
             save_pattern(scaled_pattern, save_dir / "scaled.json", overwrite=True)
     except Exception as exc:
@@ -176,6 +177,7 @@ def run_case(data: Path, garment: str, body: str, base_id: str, methods: list[st
             res = grade(base, b0, b1, settings)
             rep = res.report
             out = {"ok": True, **_score(landmark_errors(res.pattern, truth)), "seconds": rep["seconds_total"],
+                   "change_captured": change_captured(res.pattern, base, truth),
                    "ease_cm": rep["ease_cm"]["result"], "converged": rep["converged"],
                    "message": rep["message"], "outer_iterations": rep["outer_iterations"],
                    "objective_initial": rep["objective_initial"], "objective_final": rep["objective_final"],

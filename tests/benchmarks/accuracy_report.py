@@ -144,18 +144,25 @@ def family_table(res: dict) -> list[str]:
     and the median key-level ease error (the issue's per-family bar: the grading's median
     at most 0.2 cm above scaling's)."""
     names = method_names(res)
+    moved = [m for m in names if m != "unchanged"]       # the unchanged pattern captures 0 by definition
     out = ["| garment | cases | " + " | ".join(f"{m} median / worst cm" for m in names)
-           + " | median ease error cm (" + " / ".join(names) + ") |",
-           "|---|---:|" + "---:|" * len(names) + "---|"]
+           + " | median ease error cm (" + " / ".join(names) + ") | median change captured ("
+           + " / ".join(moved) + ") |",
+           "|---|---:|" + "---:|" * len(names) + "---|---|"]
     for garment in dict.fromkeys(c["garment"] for c in res["cases"]):
         rows = [c for c in res["cases"] if c["garment"] == garment]
-        cells, ease = [], []
+        cells, ease, captured = [], [], []
         for m in names:
             mx = [entry(c, m)["max_cm"] for c in rows if _ok(entry(c, m))]
             cells.append(f"{statistics.median(mx):.2f} / {max(mx):.2f}" if mx else "failed")
             ev = [v for v in (key_ease_error(c, entry(c, m)) for c in rows if _ok(entry(c, m))) if v is not None]
             ease.append(_f(statistics.median(ev) if ev else None, 1))
-        out.append(f"| {garment} | {len(rows)} | " + " | ".join(cells) + " | " + " / ".join(ease) + " |")
+            if m in moved:
+                cv = [v for v in (entry(c, m).get("change_captured") for c in rows if _ok(entry(c, m)))
+                      if v is not None]
+                captured.append(_f(statistics.median(cv) if cv else None, 2))
+        out.append(f"| {garment} | {len(rows)} | " + " | ".join(cells) + " | " + " / ".join(ease) + " | "
+                   + " / ".join(captured) + " |")
     return out
 
 
@@ -326,6 +333,9 @@ def markdown(res: dict, title_note: str | None, plot_rel: str, notes: str | None
         *ease_levels(res), "",
         f"![max landmark error per case]({plot_rel})", "",
         "## Per garment family", "", *family_table(res), "",
+        "*Change captured* (`seamfit.pattern.compare.change_captured`): the least-squares factor c "
+        "in result - base = c (draft - base) over every landmark, each panel rigidly aligned onto "
+        "the draft's: 1 is the drafted change in full, below 1 under-graded, 0 the base unchanged.", "",
         "## Per garment and body", "", *garment_tables(res),
         "## Ease per level", "", *ease_detail(res), "",
         "## Failures", "", *failures(res), "",

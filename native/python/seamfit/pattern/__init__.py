@@ -1,7 +1,7 @@
 """Sewing patterns: the model, reading and writing (sewpat-1, GarmentCode), validation, SVG,
 refitting moved outlines, output checks and grading accuracy against ground truth."""
 from .checks import output_checks
-from .compare import LandmarkReport, PanelErrors, baseline_errors, landmark_errors
+from .compare import LandmarkReport, PanelErrors, baseline_errors, change_captured, landmark_errors
 from .garmentcode import read_garmentcode
 from .io import load_pattern, save_pattern
 from .model import Edge, Panel, Pattern, Placement, Stitch, StitchSide, range_indices
@@ -14,4 +14,4 @@ __all__ = ["Edge", "Panel", "Pattern", "Placement", "Stitch", "StitchSide", "ran
            "read_sewpat", "write_sewpat", "read_garmentcode", "load_pattern", "save_pattern",
            "ValidationReport", "validate_pattern", "check_pattern", "fix_pattern", "write_svg",
            "RefitResult", "refit_pattern", "output_checks",
-           "LandmarkReport", "PanelErrors", "landmark_errors", "baseline_errors"]
+           "LandmarkReport", "PanelErrors", "landmark_errors", "baseline_errors", "change_captured"]

@@ -241,6 +241,46 @@ def _perimeter(panel: Panel) -> float:
     return polyline_length(np.vstack([o, o[:1]]))
 
 
+def _align(rp: Panel, tp: Panel, pairs):
+    """The matched landmarks of ``rp`` rigidly aligned onto ``tp``'s: (unique (result index,
+    truth index) pairs, aligned result points, truth points, angle, translation). Landmarks
+    sharing a vertex in both patterns are one point, counted once."""
+    ro, to = np.asarray(rp.outline_cm, float), np.asarray(tp.outline_cm, float)
+    uniq = list(dict.fromkeys((rp.landmarks[a], tp.landmarks[b]) for a, b in pairs))
+    src = ro[[i for i, _ in uniq]]
+    dst = to[[j for _, j in uniq]]
+    angle, t = rigid_fit(src, dst) if len(uniq) >= 2 else (0.0, dst[0] - src[0])
+    return uniq, src @ _rot(angle).T + t, dst, angle, t
+
+
+def change_captured(result: Pattern, base: Pattern, truth: Pattern) -> float | None:
+    """How much of the drafted change the result makes: the least-squares factor c in
+    result - base ~ c (truth - base) over every landmark the three share, each panel of
+    result and base rigidly aligned onto the truth's on its matched landmarks. 1: the
+    change in full; below 1: under-graded; 0: the base unchanged. None when the truth
+    does not differ from the base."""
+    num = den = 0.0
+    tnames = {p.name for p in truth.panels}
+    bnames = {p.name for p in base.panels}
+    for rp in result.panels:
+        if rp.name not in tnames or rp.name not in bnames:
+            continue
+        tp, bp = truth.panel(rp.name), base.panel(rp.name)
+        _, rpairs, _ = _match_panel(rp, tp)
+        _, bpairs, _ = _match_panel(bp, tp)
+        if not rpairs or not bpairs:
+            continue
+        ru, ra, _, _, _ = _align(rp, tp, rpairs)
+        bu, ba, bd, _, _ = _align(bp, tp, bpairs)
+        at_result = {j: a for (_, j), a in zip(ru, ra)}
+        for (_, j), b, d in zip(bu, ba, bd):
+            if j in at_result:
+                dt = d - b
+                num += float(np.dot(at_result[j] - b, dt))
+                den += float(np.dot(dt, dt))
+    return num / den if den > 1e-12 else None
+
+
 def _panel_errors(rp: Panel, tp: Panel) -> PanelErrors | None:
     matching, pairs, notes = _match_panel(rp, tp)
     base = dict(panel=rp.name, matching=matching, perimeter_cm=_perimeter(rp),
@@ -248,18 +288,10 @@ def _panel_errors(rp: Panel, tp: Panel) -> PanelErrors | None:
                 truth_area_cm2=abs(tp.signed_area_cm2()), notes=notes)
     if not pairs:
         return None
-    ro, to = np.asarray(rp.outline_cm, float), np.asarray(tp.outline_cm, float)
-    # landmarks sharing a vertex in both patterns are one point: count it once
-    uniq = list(dict.fromkeys((rp.landmarks[a], tp.landmarks[b]) for a, b in pairs))
-    src = ro[[i for i, _ in uniq]]
-    dst = to[[j for _, j in uniq]]
-    if len(uniq) >= 2:
-        angle, t = rigid_fit(src, dst)
-    else:
-        angle, t = 0.0, dst[0] - src[0]
+    uniq, aligned, dst, angle, t = _align(rp, tp, pairs)
+    if len(uniq) < 2:
         notes.append("one matched landmark: aligned by translation only (distance 0 by construction)")
-    rot = _rot(angle)
-    d_uniq = {key: float(np.linalg.norm(rot @ ro[key[0]] + t - to[key[1]])) for key in uniq}
+    d_uniq = {key: float(np.linalg.norm(a - d)) for key, a, d in zip(uniq, aligned, dst)}
     distances = {a: d_uniq[(rp.landmarks[a], tp.landmarks[b])] for a, b in pairs}
     rc, tc = set(rp.corners), set(tp.corners)
     corners = [a for a, b in pairs if rp.landmarks[a] in rc and tp.landmarks[b] in tc]

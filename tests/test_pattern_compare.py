@@ -206,3 +206,14 @@ def test_change_captured_is_the_fraction_of_the_drafted_change(samples, garment)
     assert change_captured(_scaled(base, 1.04, angle_deg=-20.0, shift=(50.0, 9.0)), base, truth) == \
         pytest.approx(0.4, abs=1e-9)
     assert change_captured(base, base, copy.deepcopy(base)) is None   # nothing to capture
+    # only lengths drafted longer (v, along the grain): a result that grew only in width
+    # captures none of it (to within what the rigid fit onto a stretched panel turns it)
+    along = copy.deepcopy(base)
+    wide = copy.deepcopy(base)
+    for pa, pw in zip(along.panels, wide.panels):
+        o = np.asarray(pa.outline_cm, float)
+        c = o[sorted(set(pa.landmarks.values()))].mean(axis=0)
+        pa.outline_cm = c + (o - c) * [1.0, 1.1]
+        pw.outline_cm = c + (o - c) * [1.1, 1.0]
+    assert change_captured(wide, base, along, axis=1) == pytest.approx(0.0, abs=0.01)
+    assert change_captured(along, base, along, axis=1) == pytest.approx(1.0, abs=1e-9)

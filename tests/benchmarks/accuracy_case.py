@@ -56,6 +56,13 @@ def _score(rep) -> dict:
             "only_in_truth": rep.only_in_truth, "only_in_result": rep.only_in_result}
 
 
+def captured(result, base, truth) -> dict:
+    """How much of the drafted change the result makes: in all, across the grain (u) and
+    along it (v) (seamfit.pattern.compare.change_captured)."""
+    return {"change_captured": change_captured(result, base, truth),
+            "change_captured_uv": [change_captured(result, base, truth, axis=a) for a in (0, 1)]}
+
+
 def ease_errors(base: dict, ease: dict | None) -> dict:
     """|ease - base ease| per level both have (cm) and their max (None when none)."""
     if not ease:
@@ -151,7 +158,7 @@ def run_case(data: Path, garment: str, body: str, base_id: str, methods: list[st
         scaled_pattern, ratios = proportional_scale(base, m0, m1)
         scaled = {"ok": True, "seconds": time.perf_counter() - t0, "ratios": ratios,
                   **_score(landmark_errors(scaled_pattern, truth)),
-                  "change_captured": change_captured(scaled_pattern, base, truth)}
+                  **captured(scaled_pattern, base, truth)}
         if save_dir is not None:
             save_pattern(scaled_pattern, save_dir / "scaled.json", overwrite=True)
     except Exception as exc:
@@ -177,7 +184,7 @@ def run_case(data: Path, garment: str, body: str, base_id: str, methods: list[st
             res = grade(base, b0, b1, settings)
             rep = res.report
             out = {"ok": True, **_score(landmark_errors(res.pattern, truth)), "seconds": rep["seconds_total"],
-                   "change_captured": change_captured(res.pattern, base, truth),
+                   **captured(res.pattern, base, truth),
                    "ease_cm": rep["ease_cm"]["result"], "converged": rep["converged"],
                    "message": rep["message"], "outer_iterations": rep["outer_iterations"],
                    "objective_initial": rep["objective_initial"], "objective_final": rep["objective_final"],

@@ -158,9 +158,13 @@ def family_table(res: dict) -> list[str]:
             ev = [v for v in (key_ease_error(c, entry(c, m)) for c in rows if _ok(entry(c, m))) if v is not None]
             ease.append(_f(statistics.median(ev) if ev else None, 1))
             if m in moved:
-                cv = [v for v in (entry(c, m).get("change_captured") for c in rows if _ok(entry(c, m)))
-                      if v is not None]
-                captured.append(_f(statistics.median(cv) if cv else None, 2))
+                cells_m = []
+                for get in (lambda e: e.get("change_captured"),
+                            lambda e: (e.get("change_captured_uv") or [None, None])[0],
+                            lambda e: (e.get("change_captured_uv") or [None, None])[1]):
+                    cv = [v for v in (get(entry(c, m)) for c in rows if _ok(entry(c, m))) if v is not None]
+                    cells_m.append(_f(statistics.median(cv) if cv else None, 2))
+                captured.append(" ".join([cells_m[0], f"({cells_m[1]}, {cells_m[2]})"]))
         out.append(f"| {garment} | {len(rows)} | " + " | ".join(cells) + " | " + " / ".join(ease) + " | "
                    + " / ".join(captured) + " |")
     return out
@@ -335,7 +339,8 @@ def markdown(res: dict, title_note: str | None, plot_rel: str, notes: str | None
         "## Per garment family", "", *family_table(res), "",
         "*Change captured* (`seamfit.pattern.compare.change_captured`): the least-squares factor c "
         "in result - base = c (draft - base) over every landmark, each panel rigidly aligned onto "
-        "the draft's: 1 is the drafted change in full, below 1 under-graded, 0 the base unchanged.", "",
+        "the draft's: 1 is the drafted change in full, below 1 under-graded, 0 the base unchanged; in "
+        "brackets the same across the grain (u, widths) and along it (v, lengths).", "",
         "## Per garment and body", "", *garment_tables(res),
         "## Ease per level", "", *ease_detail(res), "",
         "## Failures", "", *failures(res), "",

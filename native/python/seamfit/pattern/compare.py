@@ -253,12 +253,14 @@ def _align(rp: Panel, tp: Panel, pairs):
     return uniq, src @ _rot(angle).T + t, dst, angle, t
 
 
-def change_captured(result: Pattern, base: Pattern, truth: Pattern) -> float | None:
+def change_captured(result: Pattern, base: Pattern, truth: Pattern, axis: int | None = None) -> float | None:
     """How much of the drafted change the result makes: the least-squares factor c in
     result - base ~ c (truth - base) over every landmark the three share, each panel of
     result and base rigidly aligned onto the truth's on its matched landmarks. 1: the
-    change in full; below 1: under-graded; 0: the base unchanged. None when the truth
-    does not differ from the base."""
+    change in full; below 1: under-graded; 0: the base unchanged. ``axis`` 0 or 1 takes
+    only the truth panel's u (across the grain) or v (along it) components. None when the
+    truth does not differ from the base there."""
+    sel = slice(None) if axis is None else slice(axis, axis + 1)
     num = den = 0.0
     tnames = {p.name for p in truth.panels}
     bnames = {p.name for p in base.panels}
@@ -275,8 +277,8 @@ def change_captured(result: Pattern, base: Pattern, truth: Pattern) -> float | N
         at_result = {j: a for (_, j), a in zip(ru, ra)}
         for (_, j), b, d in zip(bu, ba, bd):
             if j in at_result:
-                dt = d - b
-                num += float(np.dot(at_result[j] - b, dt))
+                dt = (d - b)[sel]
+                num += float(np.dot((at_result[j] - b)[sel], dt))
                 den += float(np.dot(dt, dt))
     return num / den if den > 1e-12 else None
 

@@ -210,7 +210,20 @@ def _alive(pid: int) -> bool:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    return True
+    try:                                   # a zombie has ended; only its exit status is left
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return True
+
+
+def _ends_within(pid: int, seconds: float) -> bool:
+    """Whether process pid has ended, or ends within ``seconds``: SIGTERM reaches a grading
+    busy in native code (a body field, a drape) when that call returns, seconds later on a
+    loaded machine."""
+    deadline = time.time() + seconds
+    while _alive(pid) and time.time() < deadline:
+        time.sleep(0.1)
+    return not _alive(pid)
 
 
 def test_a_killed_worker_is_retried_and_its_job_finishes(tmp_path, first_run):
@@ -240,7 +253,7 @@ def test_a_killed_worker_is_retried_and_its_job_finishes(tmp_path, first_run):
     assert rec["state"] == "done" and rec["attempts"] == 2
     assert log.read_text().count("--- seamfit batch: attempt ") == 2
     assert (out / "size10/report.json").is_file() and (out / "size10/pattern.json").is_file()
-    assert not _alive(killed["pid"]), "the first attempt's grading died with its worker"
+    assert _ends_within(killed["pid"], 60), "the first attempt's grading died with its worker"
     assert not list(out.glob(".*seamfit-tmp*")), "the killed attempt left no half-written set"
 
 

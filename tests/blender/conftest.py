@@ -99,6 +99,10 @@ else:
         out = tmp_path_factory.mktemp("cli-grade")
         env = {"PYTHONPATH": str(extension_site_packages()), "PATH": "/usr/bin:/bin",
                "SEAMFIT_CACHE_DIR": os.environ["SEAMFIT_CACHE_DIR"]}
+        # The numeric libraries' own settings stay as the batch script's Blender has them:
+        # OpenBLAS picks its kernels by CPU unless OPENBLAS_CORETYPE names one, and kernels
+        # that round differently part the two gradings by nanometres.
+        env.update({k: v for k, v in os.environ.items() if k.startswith(("OPENBLAS_", "OMP_", "MKL_"))})
         proc = subprocess.run([sys.executable, "-m", "seamfit", "grade", str(PENCIL), "--base-body", str(BODY_BASE),
                                "--target-body", str(BODY_TARGET), "--out", str(out), "--no-picture", "-q",
                                *GRADE_ARGS, *extra], env=env, capture_output=True, text=True)

@@ -17,9 +17,7 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("ray", reason="seamfit batch needs ray (pip install 'seamfit[batch]')")
-
-from seamfit.cli import main  # noqa: E402
+from seamfit.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = ROOT / "sample_files"

@@ -11,6 +11,8 @@ from seamfit.body import body_measurements, load_body
 from seamfit.body.measure import _Slicer
 from seamfit.opt.fit import ease_report, mesh_cross_section
 
+from opt_synthetic import merge
+
 BODY = Path(__file__).resolve().parents[1] / "sample_files" / "bodies" / "women_size06.obj"
 N = 64
 
@@ -42,18 +44,9 @@ def at_bust():
     return body, levels, s, z, tubes
 
 
-def assemble(parts):
-    V, F, off = [], [], 0
-    for v, f in parts:
-        V.append(v)
-        F.append(f + off)
-        off += len(v)
-    return np.vstack(V), np.vstack(F)
-
-
 def test_the_tape_goes_around_the_torso_not_the_sleeves(at_bust):
     body, levels, s, z, tubes = at_bust
-    x, tri = assemble([tube(c, r, z) for _, c, r in tubes])
+    x, tri = merge(*[tube(c, r, z) for _, c, r in tubes])
     (_, c, r), = [t for t in tubes if t[0]]
     torso_girth = 2 * N * r * np.sin(np.pi / N)          # the body tube's polygon
     ease = ease_report(body, x, tri, levels)

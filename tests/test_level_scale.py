@@ -219,3 +219,62 @@ def test_a_top_s_girth_under_the_arms_is_the_torso_s_not_the_hull_around_its_sle
     # A garment without sleeves at that level keeps its whole section.
     g2, h02, _ = _enclosed_growth(s, body.vertices, z, torso_cloth)
     assert g2 == pytest.approx(torso_g, rel=1e-9) and h02 == pytest.approx(h0, rel=1e-9)
+
+
+def _longer_waist_to_hip(body, dz: float):
+    """The body with dz more between its seat and its natural waist: every vertex above the
+    seat moves up, by dz from the waist up; nothing grows around."""
+    from seamfit.body.measure import body_measurements
+    from seamfit.body.shape_model import hm08_landmarks
+    lv = body_measurements(body, landmarks=hm08_landmarks())["levels_z_m"]
+    v = np.array(body.vertices, dtype=float)
+    lo, hi = lv["hip"] + 0.01, lv["waist"] - 0.01
+    v[:, 2] += dz * np.clip((v[:, 2] - lo) / (hi - lo), 0.0, 1.0)
+    return replace(body, vertices=v)
+
+
+def _skirt_lengths_cm(mesh, xbar, p, seat_z):
+    """Per skirt panel, (waist to seat, seat to hem) down the pattern (cm), the seat line
+    being the pattern points that hang at the base body's seat."""
+    vp = np.asarray(mesh.vertex_panel)
+    out = []
+    for i, name in enumerate(mesh.panel_names):
+        if not name.startswith("skirt"):
+            continue
+        on = vp == i
+        v = 100.0 * p[on, 1]
+        seat = v[np.abs(xbar[on, 2] - seat_z) < 0.015].mean()
+        out.append((v.max() - seat, seat - v.min()))
+    return np.array(out)
+
+
+def test_a_skirt_s_seat_line_moves_with_the_body_s_waist_to_hip(skirt):
+    # Skirts are drafted down from the waist: the seat line sits the body's waist-to-hip
+    # below it. A body longer there by 3 cm, and no taller below the seat, gets a skirt
+    # 3 cm longer above the seat line and as long below it.
+    from seamfit.body.measure import body_measurements
+    from seamfit.body.shape_model import hm08_landmarks
+    from seamfit.opt.level_scale import level_scaled_pattern
+    mesh, xbar, body, sdf = skirt
+    target = _longer_waist_to_hip(body, 0.03)
+    m0 = body_measurements(body, landmarks=hm08_landmarks())
+    m1 = body_measurements(target, landmarks=hm08_landmarks())
+    assert m1["waist_to_hip"] - m0["waist_to_hip"] == pytest.approx(3.0, abs=0.2)
+    seat_z = m0["levels_z_m"]["waist"] - 0.01 * m0["waist_to_hip"]
+    before = _skirt_lengths_cm(mesh, xbar, 0.01 * np.asarray(mesh.uv_cm), seat_z)
+    after = _skirt_lengths_cm(mesh, xbar, level_scaled_pattern(mesh, xbar, body, target, sdf), seat_z)
+    grow = after - before
+    assert np.all(np.abs(grow[:, 0] - 3.0) < 0.6), grow
+    assert np.all(np.abs(grow[:, 1]) < 0.4), grow
+
+
+def test_a_body_of_another_mesh_keeps_the_height_map():
+    # The seat line needs the landmark-based waist-to-hip, which only the MakeHuman
+    # mesh's landmarks give; any other mesh keeps the map of its sections.
+    from seamfit.body import load_body
+    from seamfit.opt.level_scale import level_map, with_seat_line
+    body = load_body(SAMPLES / "bodies/women_size06.obj")
+    other = replace(body, faces=np.asarray(body.faces)[::-1].copy())
+    zmap = level_map(other, other)
+    out = with_seat_line(zmap, other, other)
+    assert out is zmap

@@ -13,7 +13,8 @@ a target stretch:
   change, not in proportion to it;
 * across that direction, by sy(z), the slope at z of the piecewise linear map that takes
   the base body's levels (soles, crotch, waist, armpit, crown) to where the same body
-  sections are on the target.
+  sections are on the target; a skirt the seat holds also has its seat line the target's
+  waist-to-hip below the target's waist.
 
 dH is measured where most of the garment's girth rests on the body; between two such
 levels it is interpolated, and where the garment hangs free (a skirt below the seat, a
@@ -70,8 +71,31 @@ def level_map(base_body, target_body, *, crotch: bool = True, levels: dict | Non
         zt.append(float(np.mean(tv[a, 2] + t * (tv[b, 2] - tv[a, 2]))))
     zb.append(float(base_body.vertices[:, 2].max()))
     zt.append(float(tv[:, 2].max()))
-    zb, zt = np.array(zb), np.array(zt)
-    # Keep only knots that rise on both bodies, so the map stays monotone.
+    return _monotone(np.array(zb), np.array(zt))
+
+
+def with_seat_line(zmap, base_body, target_body):
+    """The height map with a knot at the base body's seat line (its natural waist less its
+    waist-to-hip), placed on the target at the target's natural waist (where the map takes
+    the base's) less the target's own waist-to-hip. Both lengths are the landmark-based
+    measurement of any body of the MakeHuman (hm08) mesh; other bodies keep the map as it is."""
+    from ..body.shape_model import hm08_faces, hm08_landmarks
+    faces = hm08_faces()
+    if not all(np.array_equal(np.asarray(b.faces), faces) for b in (base_body, target_body)):
+        return zmap
+    lm = hm08_landmarks()
+    m0 = body_measurements(base_body, landmarks=lm)
+    m1 = body_measurements(target_body, landmarks=lm)
+    zb, zt = zmap
+    waist = float(m0["levels_z_m"]["waist"])
+    kb = waist - 0.01 * float(m0["waist_to_hip"])
+    kt = float(map_height(np.array([waist]), zb, zt)[0]) - 0.01 * float(m1["waist_to_hip"])
+    order = np.argsort(np.append(zb, kb), kind="stable")
+    return _monotone(np.append(zb, kb)[order], np.append(zt, kt)[order])
+
+
+def _monotone(zb, zt):
+    """Only the knots that rise on both bodies, so the map stays monotone."""
     keep = [0]
     for k in range(1, len(zb)):
         if zb[k] > zb[keep[-1]] + 1e-3 and zt[k] > zt[keep[-1]] + 1e-3:
@@ -184,7 +208,8 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
     # hip; trouser legs follow their own levels.
     hip_z = float((levels or base_levels(base_body))["hip"])
     k_hip = int(np.argmin(np.abs(zs - hip_z)))
-    if np.isfinite(dH[k_hip]):
+    hip_supported = bool(np.isfinite(dH[k_hip]))
+    if hip_supported:
         for k in range(k_hip):
             if section_loops(mesh, xbar, zs[k]) == 1:
                 dH[k] = dH[k_hip]
@@ -198,7 +223,7 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
     ok = np.isfinite(G) & (G > 0)
     sx = np.ones(len(zs))
     sx[ok] = 1.0 + dH[ok] / G[ok]
-    return {"z": zs, "G": G, "dH": dH, "sx": sx}
+    return {"z": zs, "G": G, "dH": dH, "sx": sx, "hip_supported": hip_supported}
 
 
 def _stretch_targets(mesh, xbar, profile, zmap):
@@ -270,9 +295,13 @@ def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return
     """p-hat (N, 2) m: the base pattern stretched level by level (module docstring)."""
     xbar = np.asarray(xbar, dtype=float)
     levels = base_levels(base_body)             # measured once: the slowest part of the start
-    zmap = level_map(base_body, target_body, levels=levels,
-                     crotch=not passes_crotch_as_one_tube(mesh, xbar, base_body, levels))
+    one_tube = passes_crotch_as_one_tube(mesh, xbar, base_body, levels)
+    zmap = level_map(base_body, target_body, levels=levels, crotch=not one_tube)
     prof = girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels)
+    if one_tube and prof["hip_supported"]:
+        # A skirt or dress the seat holds is drafted down from the waist by the body's
+        # waist-to-hip: its seat line moves with that length, not with the stature.
+        zmap = with_seat_line(zmap, base_body, target_body)
     S, E2 = _stretch_targets(mesh, xbar, prof, zmap)
     p = _solve_gradients(mesh, S, E2)
     if return_info:

@@ -99,7 +99,7 @@ def test_final_drape_is_sewn_and_outside_the_body(graded):
 
 def test_zero_strength_terms_are_never_evaluated(graded):
     _, rep = graded
-    # smo switched off here, pos by the skirt preset (auto for a pencil skirt)
+    # smo switched off here and by the skirt preset (auto for a pencil skirt), pos by the preset
     assert rep["strengths"]["smo"] == 0 and rep["strengths"]["pos"] == 0
     for term in ("dis", "smo", "str", "pos"):
         used = rep["cost_evaluations"][term] > 0

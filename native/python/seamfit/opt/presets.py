@@ -58,10 +58,11 @@ PRESETS = {
     ),
     "skirt": Preset(
         "skirt",
-        Strengths(fix=100, cur=1e6, dis=1, smo=0.05, str=1, pos=0, seam=SEAM_STRENGTH),
+        Strengths(fix=100, cur=1e6, dis=1, smo=0, str=1, pos=0, seam=SEAM_STRENGTH),
         "skirts (straight, pencil, A-line, circle): the dress's balance without the positional cost, "
-        "whose target follows the legs under a hanging hem",
-        "Secretary Dress, positional cost off (docs/method.md, 'The skirt preset')",
+        "whose target follows the legs under a hanging hem, and without the smoothness cost, which "
+        "measures which way the skirt's folds fell (either way is an equilibrium)",
+        "Secretary Dress, positional and smoothness costs off (docs/method.md, 'The skirt preset')",
     ),
     "pants": Preset(
         "pants",

@@ -8,6 +8,7 @@ import csv
 import hashlib
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -281,3 +282,72 @@ def test_a_stopped_batch_ends_its_jobs_cleanly_and_keeps_what_is_done(tmp_path, 
     status = json.loads((out / "status.json").read_text())
     assert not status["finished"] and status["running"] == 0 and status["running_jobs"] == []
     assert not list((out / "running").glob("*.json")), "no marker says a job still runs"
+
+
+def test_the_example_manifest_runs_as_it_is(tmp_path, local_ray, first_run):
+    # The repository's example: bodies, measurements, a size of a size chart and a size run.
+    manifest = SAMPLES / "batch" / "manifest.json"
+    out = tmp_path / "out"
+    before = _sha(manifest)
+    assert main(["batch", str(manifest), "--out", str(out), "--cache-dir", str(first_run[2]), "-q", *SMALL]) == 0
+    rows = {r["id"]: r for r in json.loads((out / "summary.json").read_text())["jobs"]}
+    assert set(rows) == {"pencil-size10", "pencil-apple", "pencil-me", "pencil-chart-42", "circle-size10", "pencil-run"}
+    assert all(r["state"] == "done" and r["exit"] == 0 for r in rows.values()), rows
+    for job in ("pencil-size10", "pencil-me", "pencil-chart-42", "circle-size10"):
+        assert (out / job / "pattern.json").is_file(), job
+    # the size run grades each body in turn, a folder per size
+    graded = sorted(p.parent.name for p in (out / "pencil-run").rglob("pattern.json"))
+    assert len(graded) >= 2, graded
+    assert _sha(manifest) == before
+
+
+def _free_port() -> int:
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_a_running_cluster_is_joined_with_address(tmp_path, first_run):
+    # A Ray cluster started on its own (here a one-node head, as `ray start --head` starts one
+    # on each machine of a cluster) takes the jobs of a batch pointed at it with --address;
+    # the batch starts no Ray of its own and leaves the cluster running when it ends.
+    import tempfile
+    port = _free_port()
+    ray_cli = Path(sys.executable).with_name("ray")
+    # Its own temp folder (short: Ray's socket paths must fit), so that the address file a
+    # `ray start` leaves is not found by the local Ray instances of other tests.
+    temp = tempfile.mkdtemp(prefix="rh", dir="/tmp")
+    head = subprocess.Popen([str(ray_cli), "start", "--head", "--block", f"--port={port}", "--num-cpus=2",
+                             "--include-dashboard=false", "--disable-usage-stats", f"--temp-dir={temp}"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        manifest = _write(tmp_path / "m.json", {"defaults": {"pattern": str(PATTERN), "base_body": str(B0), **COARSE},
+                                                "jobs": [{"id": "size10", "target_body": str(B10)}]})
+        out = tmp_path / "out"
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "native/python"), *sys.path]),
+                   SEAMFIT_CACHE_DIR=str(first_run[2]))
+        address = f"127.0.0.1:{port}"
+        deadline = time.time() + 300
+        while time.time() < deadline and head.poll() is None:
+            probe = subprocess.run([str(ray_cli), "status", f"--address={address}"], capture_output=True, text=True)
+            if probe.returncode == 0:
+                break
+            time.sleep(1.0)
+        assert head.poll() is None, head.stderr.read() if head.stderr else "ray start ended"
+        proc = subprocess.run([sys.executable, "-m", "seamfit", "batch", str(manifest), "--out", str(out),
+                               "--address", address, "-q", *SMALL], env=env, capture_output=True, text=True,
+                              timeout=900)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        rows = json.loads((out / "summary.json").read_text())["jobs"]
+        assert [(r["id"], r["state"]) for r in rows] == [("size10", "done")]
+        assert (out / "size10" / "pattern.json").is_file()
+        assert head.poll() is None, "the cluster outlives the batch"
+    finally:
+        os.killpg(head.pid, signal.SIGINT)
+        try:
+            head.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            os.killpg(head.pid, signal.SIGKILL)
+            head.wait(timeout=30)
+        shutil.rmtree(temp, ignore_errors=True)

@@ -41,8 +41,9 @@ def capture_body(obj, depsgraph) -> compute.BodyInput:
 
 
 def _decimal_f32(a) -> np.ndarray:
-    """float64 of the shortest decimal that gives back each float32 (numpy's repr)."""
-    return np.array([float(repr(x)) for x in np.asarray(a, dtype=np.float32)], dtype=np.float64)
+    """float64 of the shortest decimal that gives back each float32 (numpy's str: its repr
+    is 'np.float32(0.1)' from numpy 2 on, as in Blender 5.1 and later)."""
+    return np.array([float(str(x)) for x in np.asarray(a, dtype=np.float32)], dtype=np.float64)
 
 
 def pattern_name(pattern, filepath: str) -> str:

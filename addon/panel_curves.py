@@ -339,7 +339,10 @@ def _on_chord(cp: np.ndarray) -> bool:
     if span <= UNEDITED_CM:
         return False
     s = (cp[1:3] - cp[0]) @ chord / span
-    off = np.abs(np.cross(chord, cp[1:3] - cp[0])) / span
+    d = cp[1:3] - cp[0]
+    # the 2D cross product, written out: numpy 2 deprecates np.cross of 2D vectors and numpy
+    # 2.5 refuses it (Blender 5.1 and later run numpy 2)
+    off = np.abs(chord[0] * d[:, 1] - chord[1] * d[:, 0]) / span
     return bool((off <= UNEDITED_CM).all() and (s >= 0).all() and (s <= span).all())
 
 

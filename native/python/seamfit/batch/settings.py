@@ -80,6 +80,7 @@ def to_argv(values: dict) -> list[str]:
         if isinstance(v, bool):
             argv.append(option_of(name))
         else:
-            argv += [option_of(name), repr(v) if isinstance(v, float) else str(v)]
+            # float(): a numpy float is a float too, and its repr is "np.float64(...)" from numpy 2 on
+            argv += [option_of(name), repr(float(v)) if isinstance(v, float) else str(v)]
     return argv
 

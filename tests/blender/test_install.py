@@ -76,9 +76,16 @@ def test_lean_portable_wheels(installed, addon_zip):
     subpackages seamfit uses, without test suites."""
     import zipfile
     names = zipfile.ZipFile(addon_zip).namelist()
-    (seamfit_wheel,) = [n for n in names if n.startswith("wheels/seamfit-")]
+    # One seamfit wheel per Python the zip was built for (cp311; build_addon.sh --cp313 adds
+    # cp313's): the one of this Python's tag is installed.
+    wheels = [n for n in names if n.startswith("wheels/seamfit-")]
+    assert len({n.split("-")[2] for n in wheels}) == len(wheels), wheels
+    tag = f"cp{sys.version_info.major}{sys.version_info.minor}"
+    (seamfit_wheel,) = [n for n in wheels if f"-{tag}-{tag}-" in n]
     assert "-manylinux_" in seamfit_wheel
-    site = _extension_site_packages() / "lib" / "python3.11" / "site-packages"
+    site = (_extension_site_packages() / "lib" / f"python{sys.version_info.major}.{sys.version_info.minor}"
+            / "site-packages")
+    assert list(site.glob(f"seamfit/_core.cpython-{tag[2:]}-*.so")), "seamfit's wheel for this Python"
     gomp = list((site / "seamfit.libs").glob("libgomp-*.so*"))
     assert len(gomp) == 1
     import seamfit._native

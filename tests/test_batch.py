@@ -8,7 +8,6 @@ import csv
 import hashlib
 import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -300,54 +299,3 @@ def test_the_example_manifest_runs_as_it_is(tmp_path, local_ray, first_run):
     assert len(graded) >= 2, graded
     assert _sha(manifest) == before
 
-
-def _free_port() -> int:
-    import socket
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def test_a_running_cluster_is_joined_with_address(tmp_path, first_run):
-    # A Ray cluster started on its own (here a one-node head, as `ray start --head` starts one
-    # on each machine of a cluster) takes the jobs of a batch pointed at it with --address;
-    # the batch starts no Ray of its own and leaves the cluster running when it ends.
-    import tempfile
-    port = _free_port()
-    ray_cli = Path(sys.executable).with_name("ray")
-    # Its own temp folder (short: Ray's socket paths must fit), so that the address file a
-    # `ray start` leaves is not found by the local Ray instances of other tests.
-    temp = tempfile.mkdtemp(prefix="rh", dir="/tmp")
-    head = subprocess.Popen([str(ray_cli), "start", "--head", "--block", f"--port={port}", "--num-cpus=2",
-                             "--include-dashboard=false", "--disable-usage-stats", f"--temp-dir={temp}"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
-    try:
-        manifest = _write(tmp_path / "m.json", {"defaults": {"pattern": str(PATTERN), "base_body": str(B0), **COARSE},
-                                                "jobs": [{"id": "size10", "target_body": str(B10)}]})
-        out = tmp_path / "out"
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "native/python"), *sys.path]),
-                   SEAMFIT_CACHE_DIR=str(first_run[2]))
-        address = f"127.0.0.1:{port}"
-        deadline = time.time() + 300
-        while time.time() < deadline and head.poll() is None:
-            probe = subprocess.run([str(ray_cli), "status", f"--address={address}"], capture_output=True, text=True)
-            if probe.returncode == 0:
-                break
-            time.sleep(1.0)
-        assert head.poll() is None, head.stderr.read() if head.stderr else "ray start ended"
-        proc = subprocess.run([sys.executable, "-m", "seamfit", "batch", str(manifest), "--out", str(out),
-                               "--address", address, "-q", *SMALL], env=env, capture_output=True, text=True,
-                              timeout=900)
-        assert proc.returncode == 0, proc.stderr[-2000:]
-        rows = json.loads((out / "summary.json").read_text())["jobs"]
-        assert [(r["id"], r["state"]) for r in rows] == [("size10", "done")]
-        assert (out / "size10" / "pattern.json").is_file()
-        assert head.poll() is None, "the cluster outlives the batch"
-    finally:
-        os.killpg(head.pid, signal.SIGINT)
-        try:
-            head.wait(timeout=60)
-        except subprocess.TimeoutExpired:
-            os.killpg(head.pid, signal.SIGKILL)
-            head.wait(timeout=30)
-        shutil.rmtree(temp, ignore_errors=True)

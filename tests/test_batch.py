@@ -198,7 +198,7 @@ def test_a_job_larger_than_any_node_is_refused_at_once(tmp_path, local_ray, caps
     assert time.perf_counter() - t0 < 30
     err = [ln for ln in capsys.readouterr().err.splitlines() if ": error: " in ln]
     assert len(err) == 2 and err[-2].startswith("seamfit batch: error: --memory-per-job 100000: no Ray node has that much memory")
-    assert err[-1] == ("seamfit batch: error: jobs with device cuda need --gpus-per-job 0.25 of a GPU, and no Ray "
+    assert err[-1] == ("seamfit batch: error: jobs with device cuda need --gpus-per-job 1 of a GPU, and no Ray "
                        "node has a GPU")
     assert not list((out / "jobs").iterdir())
 

@@ -24,7 +24,7 @@ TERMINAL_EVERY_S = 30.0       # a progress line while nothing finishes
 @dataclass
 class Resources:
     threads: int = 1          # CPU threads of each job (OMP_NUM_THREADS), its Ray num_cpus
-    gpus: float = 0.25        # GPU share of a job whose device is cuda: four per card (docs/gpu_sharing.md)
+    gpus: float = 1.0         # GPU share of a job whose device is cuda (four per card measured best: docs/gpu_sharing.md)
     memory_gb: float = 2.0    # memory each job declares
     retries: int = 2          # retries of a job whose process or worker died
 

@@ -269,7 +269,9 @@ def test_a_stopped_batch_ends_its_jobs_cleanly_and_keeps_what_is_done(tmp_path, 
     while (time.time() < deadline and proc.poll() is None
            and not (marker.exists() and list(out.glob(".size10.seamfit-tmp-*")))):
         time.sleep(0.05)
-    assert proc.poll() is None and marker.exists(), "the job never got under way"
+    if proc.poll() is not None or not marker.exists():
+        proc.kill()
+        raise AssertionError(f"the job never got under way (exit {proc.poll()}): {proc.communicate()[1]}")
     job_pid = json.loads(marker.read_text())["pid"]
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)

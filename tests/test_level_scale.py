@@ -278,3 +278,36 @@ def test_a_body_of_another_mesh_keeps_the_height_map():
     zmap = level_map(other, other)
     out = with_seat_line(zmap, other, other)
     assert out is zmap
+
+
+def test_a_level_through_the_waist_opening_stretches_as_the_waist_below_it(skirt):
+    # The waistline is not level: the levels it crosses cut part of the section (the sides
+    # without the centre, or the reverse). They are no girth and take the stretch of the
+    # nearest level that is, so the waist edge grows as the waist does, and not as a few
+    # points of the body the part-section happens to enclose.
+    from seamfit.opt.level_scale import CLOSED_FRACTION, cloth_length, girth_profile, openings
+    mesh, xbar, body, sdf = skirt
+    prof = girth_profile(mesh, xbar, body, _widened(body, 1.06), sdf)
+    z, G, sx = prof["z"], prof["G"], prof["sx"]
+    top = int(np.flatnonzero(np.isfinite(G))[-1])
+    assert top < len(z) - 1, "the waistline crosses the top levels"
+    tri = np.asarray(mesh.triangles)
+    around = openings(mesh, xbar)
+    for k in range(top + 1, len(z)):
+        za, zb = xbar[around[:, 0], 2] - z[k], xbar[around[:, 1], 2] - z[k]
+        assert np.any(za * zb < 0), "a level without a girth crosses an opening"
+        assert cloth_length(xbar, tri, z[k]) < CLOSED_FRACTION * G[top], "part of a section"
+    assert np.allclose(sx[top:], sx[top])
+    assert sx[top] > 1.03          # the widened body's waist grew 6 %, less the ease
+
+
+def test_openings_are_the_waist_and_hem_not_the_side_seams(skirt):
+    from seamfit.opt.level_scale import openings
+    mesh, xbar, _, _ = skirt
+    e = openings(mesh, xbar)
+    z = xbar[e].mean(axis=1)[:, 2]
+    zmin, zmax = xbar[:, 2].min(), xbar[:, 2].max()
+    near_edge = np.minimum(z - zmin, zmax - z) < 0.05
+    assert len(e) > 0 and near_edge.all()
+    pairs = set(map(tuple, np.sort(np.asarray(mesh.sewing_pairs), axis=1)))
+    assert not any(tuple(sorted(x)) in pairs for x in e)

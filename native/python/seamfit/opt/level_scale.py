@@ -18,7 +18,10 @@ a target stretch:
 
 dH is measured where most of the garment's girth rests on the body; between two such
 levels it is interpolated, and where the garment hangs free (a skirt below the seat, a
-flare below the waist) it is the growth of the level it hangs from. The pattern whose triangle gradients best match those stretches (a
+flare below the waist) it is the growth of the level it hangs from. A level that cuts an
+opening's edge (a waistline rising to the side seams, a dipping hem) and finds less cloth
+than its tape is part of a section, no girth: it stretches as the nearest level that is
+one. The pattern whose triangle gradients best match those stretches (a
 sparse least-squares solve per panel, the same kind of solve as a Poisson problem) is the
 level-scaled pattern. Equal bodies give the base pattern back exactly.
 """
@@ -42,6 +45,12 @@ LEVEL_STEP_M = 0.01     # girth profile sampling
 # A level is supported by the body when at least this share of the garment's vertices
 # there touch it: most of its girth rests on the body.
 SUPPORT_FRACTION = 0.5
+# A level that crosses an opening's edge (a waistline curving up to the side seams, a
+# dipping hem) is a girth only where its cloth covers at least this share of its tape: a
+# vent's small gap still measures the level, a section that misses the centre front does not.
+CLOSED_FRACTION = 0.9
+# An opening runs around the body (waist, hem) when it climbs less than this per length.
+OPENING_SLOPE = 0.5
 
 
 def base_levels(base_body) -> dict:
@@ -147,6 +156,57 @@ def section_loops(mesh, x, z: float) -> int:
     return len(np.unique(label[used]))
 
 
+def openings(mesh, x) -> np.ndarray:
+    """(E, 2) the edges of the garment's openings the body passes through lengthwise
+    (waist, hem, neckline, cuffs): runs of panel boundary no stitch closes that go more
+    around than up, by ``x``. An armhole's edge climbs the side and is left out: a level
+    through it still goes round the chest."""
+    pairs = np.asarray(mesh.sewing_pairs, dtype=np.int64).reshape(-1)
+    sewn = np.zeros(len(mesh.uv_cm), dtype=bool)
+    sewn[pairs] = True
+    x = np.asarray(x, dtype=float)
+    out = []
+    for loop in mesh.boundary_loops:
+        loop = np.asarray(loop, dtype=np.int64)
+        e = np.column_stack([loop, np.roll(loop, -1)])
+        free = ~(sewn[e[:, 0]] & sewn[e[:, 1]])
+        if free.all():
+            runs = [e]
+        else:
+            # start on a stitched edge; each run of free edges follows one
+            k0 = int(np.flatnonzero(~free)[0])
+            e, free = np.roll(e, -k0, axis=0), np.roll(free, -k0)
+            runs = [r[1:] for r in np.split(e, np.flatnonzero(~free)[1:]) if len(r) > 1]
+        for r in runs:
+            around = np.linalg.norm(x[r[:, 1], :2] - x[r[:, 0], :2], axis=1).sum()
+            up = np.ptp(x[r.ravel(), 2])
+            if up < OPENING_SLOPE * around:
+                out.append(r)
+    return np.vstack(out) if out else np.zeros((0, 2), dtype=np.int64)
+
+
+def cloth_length(x, triangles, z: float) -> float:
+    """Length of the garment's section at height z: the cloth itself, folds included."""
+    X = np.asarray(x, dtype=float)[np.asarray(triangles)]
+    d = X[:, :, 2] - z
+    crossed, points = [], []
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        da, db = d[:, a], d[:, b]
+        c = da * db < 0
+        t = np.where(c, da / np.where(c, da - db, 1.0), 0.0)
+        crossed.append(c)
+        points.append(X[:, a, :2] + t[:, None] * (X[:, b, :2] - X[:, a, :2]))
+    crossed, points = np.stack(crossed, 1), np.stack(points, 1)
+    two = crossed.sum(axis=1) == 2
+    seg = points[two][crossed[two]].reshape(-1, 2, 2)
+    return float(np.linalg.norm(seg[:, 0] - seg[:, 1], axis=1).sum())
+
+
+def _crosses(x, edges, z: float) -> bool:
+    za, zb = x[edges[:, 0], 2] - z, x[edges[:, 1], 2] - z
+    return bool(np.any(za * zb < 0))
+
+
 def _hull_perimeter(h) -> float:
     p = h.points[h.vertices]
     return float(np.linalg.norm(np.diff(np.vstack([p, p[:1]]), axis=0), axis=1).sum())
@@ -195,8 +255,12 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
     phi = sample_sdf(base_sdf, xbar)[0]
     G = np.full(len(zs), np.nan)
     dH = np.full(len(zs), np.nan)
+    around = openings(mesh, xbar)
     for k, z in enumerate(zs):
         g0, h0, h1 = _enclosed_growth(s0, tv, z, mesh_cross_section(xbar, tri, z))
+        if (np.isfinite(g0) and _crosses(xbar, around, z)
+                and cloth_length(xbar, tri, z) < CLOSED_FRACTION * g0):
+            continue                    # part of a section: no girth (CLOSED_FRACTION)
         G[k] = g0
         # The body sets a level's girth where most of the garment's section rests on it;
         # where a few points graze it (a flare touching the seat) the garment hangs.
@@ -222,7 +286,10 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
         dH = np.interp(zs, zs[known], dH[known])
     ok = np.isfinite(G) & (G > 0)
     sx = np.ones(len(zs))
-    sx[ok] = 1.0 + dH[ok] / G[ok]
+    if ok.any():
+        # A level that is no girth (an opening's edge, or no section) stretches as the
+        # nearest one that is.
+        sx = np.interp(zs, zs[ok], 1.0 + dH[ok] / G[ok])
     return {"z": zs, "G": G, "dH": dH, "sx": sx, "hip_supported": hip_supported}
 
 

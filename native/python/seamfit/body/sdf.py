@@ -21,6 +21,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import threading
 import time
 import zipfile
 from collections import OrderedDict
@@ -136,10 +137,12 @@ def _jsonable(obj):
 # ----------------------------------------------------------------------------- cache
 
 _memory: "OrderedDict[str, SignedDistanceField]" = OrderedDict()
+_memory_lock = threading.Lock()   # two fields may build at once (seamfit.opt.prepare)
 
 
 def clear_memory_cache() -> None:
-    _memory.clear()
+    with _memory_lock:
+        _memory.clear()
 
 
 def sdf_cache_dir() -> Path:
@@ -169,10 +172,11 @@ def sdf_cache_key(body: Body, spacing: float, padding: float, bounds=None) -> st
 
 
 def _remember(key: str, sdf: SignedDistanceField) -> None:
-    _memory[key] = sdf
-    _memory.move_to_end(key)
-    while len(_memory) > _MEMORY_ENTRIES:
-        _memory.popitem(last=False)
+    with _memory_lock:
+        _memory[key] = sdf
+        _memory.move_to_end(key)
+        while len(_memory) > _MEMORY_ENTRIES:
+            _memory.popitem(last=False)
 
 
 def _entry_problem(z: dict, key: str, layout: dict, spacing: float) -> str | None:
@@ -248,9 +252,11 @@ def build_sdf(body: Body, spacing: float = DEFAULT_SPACING, padding: float = DEF
     key = sdf_cache_key(body, spacing, padding, nb)
     rejected: list = []
     if cache:
-        hit = _memory.get(key)
+        with _memory_lock:
+            hit = _memory.get(key)
+            if hit is not None:
+                _memory.move_to_end(key)
         if hit is not None:
-            _memory.move_to_end(key)
             return SignedDistanceField(hit.values, hit.origin, hit.spacing, hit.info, source="memory cache")
         disk_path = sdf_cache_dir() / f"{key}.npz"
         hit = _from_disk(disk_path, key, body, spacing, padding, nb, rejected)

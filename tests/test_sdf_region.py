@@ -5,7 +5,6 @@ and a garment that leaves a cropped field is caught."""
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -202,32 +201,3 @@ def test_grade_on_cropped_fields(tmp_path):
         assert f["nodes"] == int(np.prod(f["dims"]))
         assert f["max_outside_mm"] == 0.0
     assert rep["drape"]["min_phi_mm"] > -5
-
-
-def test_both_whole_body_fields_built_at_once_equal_the_ones_built_in_turn(monkeypatch):
-    """On a host with four cores or more prepare builds the base and target fields at once
-    (two threads); the fields are the very ones built one after the other."""
-    built = []
-    real = prep.body_field
-
-    def spy(body, *a, **kw):
-        import threading
-        built.append(threading.current_thread().name)
-        return real(body, *a, **kw)
-
-    monkeypatch.setattr(prep, "body_field", spy)
-    monkeypatch.setattr(prep, "base_drape", lambda mesh, *a, **kw: (np.asarray(mesh.x0, float),
-                                                                    {"cached": False, "key": "k", "residual": 0.0}))
-    settings = GradeSettings(edge_length_cm=6, sdf_spacing=0.01, sdf_region="body", evaluate_base_pattern=False)
-    fields = {}
-    for cores in (8, 2):
-        sdf_mod.clear_memory_cache()
-        shutil.rmtree(sdf_mod.sdf_cache_dir(), ignore_errors=True)   # built, not loaded
-        built.clear()
-        monkeypatch.setattr(prep, "_cores", lambda: cores)
-        ctx = prep.prepare(load_pattern(SKIRT), load_body(B0), load_body(B1), settings)
-        assert ctx.base_sdf.source == ctx.target_sdf.source == "built"
-        fields[cores] = (ctx.base_sdf, ctx.target_sdf)
-        assert len(set(built)) == (2 if cores == 8 else 1), built
-    for a, b in zip(fields[8], fields[2]):
-        assert np.array_equal(a.values, b.values) and np.array_equal(a.origin, b.origin)

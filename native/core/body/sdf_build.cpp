@@ -478,23 +478,22 @@ SdfBuildStats sdf_build(const double* Vin, int64_t nv, const int32_t* Fin, int64
   }
   st.seconds_seed = seconds_since(t0);
 
-  // ---- 2. closest-triangle propagation by plane sweeps
-  // A pass walks the z planes upward (or downward): each plane first tries the
-  // triangles of the plane before it, then a 2-D sweep (rows forward with +-x
-  // scans, rows backward with +-x scans) spreads them within the plane. An
-  // upward and a downward pass run on two threads. The upward pass's step s
-  // writes plane s (reading s - 1), the downward's writes nz-1-s (reading nz-s):
-  // they touch a common plane only at the step c where they meet (2c = nz - 1 or
-  // nz). So steps before c run concurrently on disjoint planes, step c runs
-  // upward then downward on one thread, and the steps after c are disjoint again
-  // (upward above the middle, downward below it). Every node thus sees the same
-  // sequence of updates whatever the thread count or timing: the field is
-  // bitwise reproducible (free-running passes meeting through atomics were not).
+  // ---- 2. closest-triangle propagation by sweeps
+  // A pass walks the z planes upward, a second one downward. Each plane first tries
+  // the triangles of the plane before it, then sweeps within the plane: along y
+  // forward, along x both ways, along y backward, along x both ways. Each of those
+  // loops runs its independent units at once on every thread - the nodes of the plane
+  // (reading the plane before), blocks of whole columns (a y sweep), whole rows (an x
+  // sweep) - and a unit reads only what the loop leaves unwritten or its own unit, so
+  // the field is the same bits for any thread count or timing.
   t0 = Clock::now();
   {
-    const int64_t sy = G.nx, sz = G.nx * G.ny;
-    int64_t evals_per[2] = {0, 0};
-    // Plain loads and stores: the two threads never share a plane (see above).
+    const int64_t sz = G.nx * G.ny;
+    // Columns per block of a y sweep: fixed (not from the thread count), a few cache
+    // lines of each row.
+    const int64_t col_block = 16;
+    const int64_t n_blocks = (G.nx + col_block - 1) / col_block;
+    int64_t evals = 0;
     auto relax = [&](int64_t src, int64_t dst, const Vec3& p, int64_t& cnt) {
       const uint64_t s = cell[src];
       if (s == kEmpty) return;
@@ -517,54 +516,43 @@ SdfBuildStats sdf_build(const double* Vin, int64_t nv, const int32_t* Fin, int64
       const uint64_t c = pack(float(std::sqrt(tri_dist2(T, p))), int32_t(t));
       if (c < cur) cell[dst] = c;
     };
-    // Step `step` of the pass in direction dir: plane k from plane k - dir, then
-    // the in-plane sweep.
-    auto plane_step = [&](int dir, int64_t step, int64_t& total) {
-      int64_t cnt = 0;  // a local counter: a shared one would bounce between cores
-      const int64_t k = dir > 0 ? step : G.nz - 1 - step;
-      const double z = G.o[2] + h * double(k);
-      if (step > 0) {
-        const int64_t prev = -dir * sz;
-        for (int64_t j = 0; j < G.ny; ++j)
-          for (int64_t i = 0; i < G.nx; ++i) {
-            const int64_t id = G.idx(i, j, k);
-            relax(id + prev, id, make_vec3(G.o[0] + h * double(i), G.o[1] + h * double(j), z), cnt);
-          }
-      }
-      for (int half = 0; half < 2; ++half) {
-        for (int64_t s = 0; s < G.ny; ++s) {
-          const int64_t j = half == 0 ? s : G.ny - 1 - s;
-          const double y = G.o[1] + h * double(j);
-          const int64_t base = G.idx(0, j, k);
-          if (s > 0) {
-            const int64_t prev = half == 0 ? -sy : sy;
-            for (int64_t i = 0; i < G.nx; ++i) relax(base + i + prev, base + i, make_vec3(G.o[0] + h * double(i), y, z), cnt);
-          }
-          for (int64_t i = 1; i < G.nx; ++i) relax(base + i - 1, base + i, make_vec3(G.o[0] + h * double(i), y, z), cnt);
-          for (int64_t i = G.nx - 2; i >= 0; --i) relax(base + i + 1, base + i, make_vec3(G.o[0] + h * double(i), y, z), cnt);
-        }
-      }
-      total += cnt;
-    };
-    const int64_t meet = G.nz / 2;  // 2 meet is nz - 1 or nz
-    auto steps = [&](int d, int64_t s0, int64_t s1) {
-      for (int64_t step = s0; step < s1; ++step) plane_step(d == 0 ? 1 : -1, step, evals_per[d]);
+    auto node = [&](int64_t i, int64_t j, int64_t k) {
+      return make_vec3(G.o[0] + h * double(i), G.o[1] + h * double(j), G.o[2] + h * double(k));
     };
     for (int round = 0; round < P.rounds; ++round) {
-#pragma omp parallel num_threads(std::min(nt, 2))
-      {
-#pragma omp for schedule(static, 1)
-        for (int d = 0; d < 2; ++d) steps(d, 0, meet);
-#pragma omp single
-        {
-          steps(0, meet, meet + 1);
-          steps(1, meet, meet + 1);
+      for (int dir : {1, -1}) {
+        for (int64_t step = 0; step < G.nz; ++step) {
+          const int64_t k = dir > 0 ? step : G.nz - 1 - step;
+#pragma omp parallel num_threads(nt) reduction(+ : evals)
+          {
+            if (step > 0) {
+              const int64_t prev = -dir * sz;
+#pragma omp for schedule(static)
+              for (int64_t j = 0; j < G.ny; ++j)
+                for (int64_t i = 0; i < G.nx; ++i) relax(G.idx(i, j, k) + prev, G.idx(i, j, k), node(i, j, k), evals);
+            }
+            for (int ydir : {1, -1}) {
+#pragma omp for schedule(static)
+              for (int64_t bl = 0; bl < n_blocks; ++bl) {
+                const int64_t i0 = bl * col_block, i1 = std::min(G.nx, i0 + col_block);
+                for (int64_t s = 1; s < G.ny; ++s) {
+                  const int64_t j = ydir > 0 ? s : G.ny - 1 - s;
+                  for (int64_t i = i0; i < i1; ++i)
+                    relax(G.idx(i, j - ydir, k), G.idx(i, j, k), node(i, j, k), evals);
+                }
+              }
+#pragma omp for schedule(static)
+              for (int64_t j = 0; j < G.ny; ++j) {
+                const int64_t base = G.idx(0, j, k);
+                for (int64_t i = 1; i < G.nx; ++i) relax(base + i - 1, base + i, node(i, j, k), evals);
+                for (int64_t i = G.nx - 2; i >= 0; --i) relax(base + i + 1, base + i, node(i, j, k), evals);
+              }
+            }
+          }
         }
-#pragma omp for schedule(static, 1)
-        for (int d = 0; d < 2; ++d) steps(d, meet + 1, G.nz);
       }
     }
-    st.propagate_evaluations = evals_per[0] + evals_per[1];
+    st.propagate_evaluations = evals;
   }
   st.seconds_propagate = seconds_since(t0);
 #pragma omp parallel for num_threads(nt) schedule(static)

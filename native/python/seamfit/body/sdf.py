@@ -21,7 +21,6 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-import threading
 import time
 import zipfile
 from collections import OrderedDict
@@ -41,7 +40,8 @@ __all__ = ["SignedDistanceField", "build_sdf", "sdf_cache_key", "sdf_cache_dir",
 FORMAT = "seamfit-sdf-1"
 # Bump when the build's output changes: old cache entries then miss.
 # 2: propagation made deterministic (the same bits for any thread count).
-ALGORITHM_VERSION = 2
+# 3: propagation sweeps on every thread (an upward pass, then a downward one).
+ALGORITHM_VERSION = 3
 DEFAULT_SPACING = 0.0025
 DEFAULT_PADDING = 0.05
 MAX_NODES = 400_000_000  # ~1.6 GB of float32 values (plus ~2x while building)
@@ -137,12 +137,10 @@ def _jsonable(obj):
 # ----------------------------------------------------------------------------- cache
 
 _memory: "OrderedDict[str, SignedDistanceField]" = OrderedDict()
-_memory_lock = threading.Lock()   # two fields may build at once (seamfit.opt.prepare)
 
 
 def clear_memory_cache() -> None:
-    with _memory_lock:
-        _memory.clear()
+    _memory.clear()
 
 
 def sdf_cache_dir() -> Path:
@@ -172,11 +170,10 @@ def sdf_cache_key(body: Body, spacing: float, padding: float, bounds=None) -> st
 
 
 def _remember(key: str, sdf: SignedDistanceField) -> None:
-    with _memory_lock:
-        _memory[key] = sdf
-        _memory.move_to_end(key)
-        while len(_memory) > _MEMORY_ENTRIES:
-            _memory.popitem(last=False)
+    _memory[key] = sdf
+    _memory.move_to_end(key)
+    while len(_memory) > _MEMORY_ENTRIES:
+        _memory.popitem(last=False)
 
 
 def _entry_problem(z: dict, key: str, layout: dict, spacing: float) -> str | None:
@@ -252,11 +249,9 @@ def build_sdf(body: Body, spacing: float = DEFAULT_SPACING, padding: float = DEF
     key = sdf_cache_key(body, spacing, padding, nb)
     rejected: list = []
     if cache:
-        with _memory_lock:
-            hit = _memory.get(key)
-            if hit is not None:
-                _memory.move_to_end(key)
+        hit = _memory.get(key)
         if hit is not None:
+            _memory.move_to_end(key)
             return SignedDistanceField(hit.values, hit.origin, hit.spacing, hit.info, source="memory cache")
         disk_path = sdf_cache_dir() / f"{key}.npz"
         hit = _from_disk(disk_path, key, body, spacing, padding, nb, rejected)

@@ -4,9 +4,7 @@ parametrization, regularizers, the grading objective f with the preset strengths
 simulator on the target body."""
 from __future__ import annotations
 
-import os
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field, replace
 from typing import Callable, Optional
 
@@ -128,24 +126,6 @@ class GradeContext:
         return self.base_on_target
 
 
-def _cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:
-        return os.cpu_count() or 1
-
-
-def _same_vertices(a, b) -> bool:
-    va, vb = np.asarray(a.vertices), np.asarray(b.vertices)
-    return a is b or (va.shape == vb.shape and np.array_equal(va, vb))
-
-
-def _base_field(once, mesh, base_pattern, base_body, settings, region, margin):
-    return once("base_field", lambda: body_field(
-        base_body, settings.sdf_spacing, region, margin=margin,
-        z_range=placement_z_range(mesh, base_pattern, base_body) if region == "garment" else None))
-
-
 def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: Fabric | None = None,
             sim_settings: SimSettings | None = None, progress: ProgressFn | None = None,
             shared: dict | None = None) -> GradeContext:
@@ -187,23 +167,11 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     margin = getattr(settings, "sdf_region_margin", GARMENT_REGION_MARGIN)
     base_region = resolve_sdf_region(region, base_body, settings.sdf_spacing)
     target_region = resolve_sdf_region(region, target_body, settings.sdf_spacing)
-    target_build = None
-    if (target_region == "body" and "base_field" not in (shared or {}) and _cores() >= 4
-            and not _same_vertices(base_body, target_body)):
-        # Both fields build at once: a build's propagation runs on two threads
-        # (native/core/body/sdf_build.cpp), so a host with four cores or more builds the
-        # two in about the time of one; on two cores it was slower (6.5 -> 7.7 s)
-        # (docs/grading.md, "The defaults on an H100").
-        with ThreadPoolExecutor(max_workers=1) as pool:
-            target_build = pool.submit(body_field, target_body, settings.sdf_spacing, "body")
-            base_sdf, base_field = _base_field(once, mesh, base_pattern, base_body, settings, base_region, margin)
-    else:
-        base_sdf, base_field = _base_field(once, mesh, base_pattern, base_body, settings, base_region, margin)
+    base_sdf, base_field = once("base_field", lambda: body_field(
+        base_body, settings.sdf_spacing, base_region, margin=margin,
+        z_range=placement_z_range(mesh, base_pattern, base_body) if base_region == "garment" else None))
     if target_region == "body":
-        if target_build is None:
-            target_sdf, target_field = body_field(target_body, settings.sdf_spacing, "body")
-        else:
-            target_sdf, target_field = target_build.result()
+        target_sdf, target_field = body_field(target_body, settings.sdf_spacing, "body")
     else:
         check_body(target_body)  # fail before the base drape, as the whole-body build would
 

@@ -1,7 +1,8 @@
 """seamfit batch on a real local Ray instance (2 CPUs) at a coarse setting: a manifest's
 problems named by job and field before any work; a run whose good jobs write their results
 while a job with a bad input fails alone with its log; a rerun that skips what is done; a
-worker killed mid-job whose job is retried and finishes."""
+worker killed mid-job whose job is retried and finishes; a cluster started on its own with
+`ray start --head`, joined with --address, and an address where no cluster answers."""
 from __future__ import annotations
 
 import csv
@@ -37,6 +38,19 @@ def _sha(path):
 def _write(path: Path, data) -> Path:
     path.write_text(json.dumps(data, indent=1))
     return path
+
+
+def _seamfit_env(**extra) -> dict:
+    """The environment of a process (a batch, a Ray node) that imports the seamfit these tests
+    import: the development tree's, or the installed one in CI, where the tree has no compiled
+    core (a batch of the tree's seamfit there runs jobs that cannot grade). No Ray address or
+    authentication setting of this process's own Ray leaks in: each test gives its own."""
+    import seamfit
+    root = str(Path(seamfit.__file__).resolve().parents[1])
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("RAY_ADDRESS", "RAY_AUTH_MODE", "RAY_AUTH_TOKEN", "RAY_AUTH_TOKEN_PATH")}
+    env["PYTHONPATH"] = os.pathsep.join([root, *filter(None, [os.environ.get("PYTHONPATH")])])
+    return {**env, **extra}
 
 
 # ----------------------------------------------------------------------- manifest checks
@@ -259,8 +273,7 @@ def test_a_stopped_batch_ends_its_jobs_cleanly_and_keeps_what_is_done(tmp_path, 
     manifest = _write(tmp_path / "m.json", {"defaults": {"pattern": str(PATTERN), "base_body": str(B0), **COARSE},
                                             "jobs": [{"id": "size10", "target_body": str(B10)}]})
     out = tmp_path / "out"
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "native/python"), *sys.path]),
-               SEAMFIT_CACHE_DIR=str(first_run[2]))
+    env = _seamfit_env(SEAMFIT_CACHE_DIR=str(first_run[2]))
     proc = subprocess.Popen([sys.executable, "-m", "seamfit", "batch", str(manifest), "--out", str(out),
                              "--cpus", "1", *SMALL], env=env, stderr=subprocess.PIPE, text=True)
     marker = out / "running/size10.json"
@@ -301,3 +314,152 @@ def test_the_example_manifest_runs_as_it_is(tmp_path, local_ray, first_run):
     assert len(graded) >= 2, graded
     assert _sha(manifest) == before
 
+
+# ----------------------------------------------------------------------- a running cluster (--address)
+
+def _free_port() -> int:
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _group_members(pgid: int) -> list[int]:
+    """The processes of a process group that have not ended (zombies excluded)."""
+    pids = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except (OSError, IndexError):
+                continue
+            if int(fields[2]) == pgid and fields[0] != "Z":
+                pids.append(int(entry.name))
+    return pids
+
+
+@pytest.fixture
+def ray_head(tmp_path_factory):
+    """A one-node cluster started on its own, as `ray start --head` starts one on each machine
+    of a cluster, from this Python with the seamfit these tests import, and a token of its own
+    (Ray asks for one by default where ~/.ray/auth_token exists). Its temp folder is its own,
+    so that its address file is never found by the local Ray instances of other tests; at the
+    end its process group (ray start, the GCS, the raylet and its workers) is stopped and the
+    folder removed."""
+    import secrets
+    import shutil
+    import tempfile
+    temp = tmp_path_factory.mktemp("rh")
+    if len(str(temp)) > 40:                 # Ray's socket paths under it must fit in 107 characters
+        temp = Path(tempfile.mkdtemp(prefix="rh", dir="/tmp"))
+    port = _free_port()
+    env = _seamfit_env(RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=secrets.token_hex(16))
+    log = open(temp / "head.log", "w")
+    head = subprocess.Popen([sys.executable, "-m", "ray.scripts.scripts", "start", "--head", "--block", f"--port={port}",
+                             "--num-cpus=1", "--object-store-memory=100000000", "--include-dashboard=false",
+                             "--disable-usage-stats", f"--temp-dir={temp}"],
+                            env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    try:
+        import socket
+        deadline = time.time() + 300
+        up = False
+        while not up and time.time() < deadline and head.poll() is None:
+            time.sleep(0.5)
+            if (temp / "ray_current_cluster").exists():       # written once the head is up
+                try:
+                    socket.create_connection(("127.0.0.1", port), timeout=2).close()
+                    up = True
+                except OSError:
+                    pass
+        assert up, f"the head node did not start (exit {head.poll()}): {(temp / 'head.log').read_text()[-2000:]}"
+        yield {"address": f"127.0.0.1:{port}", "env": env, "head": head}
+    finally:
+        try:
+            os.killpg(head.pid, signal.SIGTERM)
+        except ProcessLookupError:
+            pass
+        deadline = time.time() + 5
+        while _group_members(head.pid) and time.time() < deadline:
+            time.sleep(0.2)
+        if _group_members(head.pid):        # the GCS takes its time over SIGTERM
+            os.killpg(head.pid, signal.SIGKILL)
+        head.wait(timeout=30)
+        deadline = time.time() + 15
+        while _group_members(head.pid) and time.time() < deadline:
+            time.sleep(0.2)
+        log.close()
+        leftover = _group_members(head.pid)
+        shutil.rmtree(temp, ignore_errors=True)
+        assert not leftover, f"processes of the head node left running: {leftover}"
+
+
+def test_a_running_cluster_is_joined_with_address(tmp_path, ray_head, first_run):
+    # The batch starts no Ray of its own: its job runs on the cluster's worker, which imports
+    # seamfit there, and the cluster outlives the batch. A driver without the cluster's
+    # token is refused in one line naming the address.
+    default_address_file = Path("/tmp/ray/ray_current_cluster")
+    existed = default_address_file.exists()
+    manifest = _write(tmp_path / "m.json", {"defaults": {"pattern": str(PATTERN), "base_body": str(B0), **COARSE},
+                                            "jobs": [{"id": "size10", "target_body": str(B10)}]})
+    address = ray_head["address"]
+    argv = [sys.executable, "-m", "seamfit", "batch", str(manifest), "--address", address, *SMALL]
+
+    # (Ray tries 20 times, a second apart, before it gives up; 2 here.)
+    no_token = {k: v for k, v in ray_head["env"].items() if k != "RAY_AUTH_TOKEN"}
+    no_token.update(RAY_AUTH_MODE="disabled", RAY_gcs_server_port_wait_time_s="2")
+    t0 = time.perf_counter()
+    proc = subprocess.run([*argv, "--out", str(tmp_path / "refused")], env=no_token, capture_output=True,
+                          text=True, timeout=120)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and lines[-1].startswith(f"seamfit batch: error: cannot connect to the Ray cluster "
+                                                         f"at {address}"), proc.stderr[-2000:]
+    assert "RAY_AUTH_MODE=token" in lines[-1] and "Traceback" not in proc.stderr, proc.stderr[-2000:]
+    assert not [ln for ln in lines[:-1] if "gcs_client" in ln or "error" in ln], "Ray's own messages go to its log"
+    assert time.perf_counter() - t0 < 60
+
+    out = tmp_path / "out"
+    proc = subprocess.run([*argv, "--out", str(out)], env={**ray_head["env"], "SEAMFIT_CACHE_DIR": str(first_run[2])},
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows = json.loads((out / "summary.json").read_text())["jobs"]
+    assert [(r["id"], r["state"], r["exit"]) for r in rows] == [("size10", "done", 0)], proc.stderr[-2000:]
+    assert (out / "size10" / "pattern.json").is_file()
+    assert ray_head["head"].poll() is None, "the cluster outlives the batch"
+    assert existed or not default_address_file.exists(), "no address file is left where other tests' Ray looks"
+
+
+def test_an_unreachable_cluster_is_named_in_one_line_at_once(tmp_path):
+    manifest = _write(tmp_path / "m.json", [{"id": "a", "pattern": str(PATTERN), "base_body": str(B0),
+                                             "target_body": str(B10)}])
+    port = _free_port()                    # nothing listens there
+    for address, expected in ((f"127.0.0.1:{port}", f"cannot reach the Ray cluster at 127.0.0.1:{port}"),
+                              ("nohost", "--address nohost: not a Ray address")):
+        t0 = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "seamfit", "batch", str(manifest), "--out", str(tmp_path / "out"),
+                               "--address", address, "-q"], env=_seamfit_env(), capture_output=True, text=True,
+                              timeout=120)
+        seconds = time.perf_counter() - t0
+        lines = proc.stderr.strip().splitlines()
+        assert proc.returncode == 2 and len(lines) == 1, proc.stderr[-2000:]
+        assert lines[0].startswith(f"seamfit batch: error: {expected}"), lines
+        assert seconds < 30, f"{address}: {seconds:.0f} s"
+    assert not list((tmp_path / "out" / "jobs").iterdir())
+
+
+def test_the_nodes_seamfit_is_checked_before_the_jobs(local_ray):
+    # The check is sent by value, so a node without seamfit runs it too; here the local
+    # instance's workers import this seamfit, and a node that imports none, one without its
+    # compiled core, or another copy is named with what it needs.
+    from seamfit.batch import cluster
+    notes = []
+    cluster.check_workers(local_ray, 1, notes.append)
+    assert notes == []
+    here = cluster._seamfit_check()()
+    assert here["version"] and not here.get("core_error")
+    assert cluster._compare(dict(here, host="n1"), here) is None
+    missing = cluster._compare({"host": "n1", "error": "ModuleNotFoundError: No module named 'seamfit'"}, here)
+    assert "cannot import seamfit (ModuleNotFoundError" in missing and here["where"] in missing
+    no_core = cluster._compare(dict(here, core_error="ImportError: no _core"), here)
+    assert "compiled core does not load" in no_core
+    other = cluster._compare(dict(here, where="/elsewhere/seamfit", digest="0"), here)
+    assert "another seamfit (/elsewhere/seamfit: its files differ" in other

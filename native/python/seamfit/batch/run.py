@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import SeamfitError
-from . import records
+from . import cluster, records
 from . import settings as job_settings
 from .tasks import STOP_FILE, JobCrashed, run_job_process, sweep_leftovers
 
@@ -90,8 +90,8 @@ def run_batch(manifest: Path, jobs: list, out: Path, *, address: str | None, cpu
     for sub in ("jobs", "logs", "running", "bodies"):
         (out / sub).mkdir(parents=True, exist_ok=True)
 
-    def say(line: str) -> None:
-        if not quiet:
+    def say(line: str, always: bool = False) -> None:
+        if always or not quiet:            # -q keeps a failed job's line: a batch never fails silently
             print(line, file=sys.stderr, flush=True)
 
     status = records.Status(out, manifest, [j.id for j in jobs])
@@ -116,19 +116,23 @@ def run_batch(manifest: Path, jobs: list, out: Path, *, address: str | None, cpu
     env = {}
     if cache_dir is not None:
         env["SEAMFIT_CACHE_DIR"] = str(Path(os.path.abspath(cache_dir)))
-    # The job processes import the same seamfit as this one.
-    package_root = str(Path(__file__).resolve().parents[2])
-    env["PYTHONPATH"] = os.pathsep.join([package_root, *filter(None, [os.environ.get("PYTHONPATH")])])
+    # Each job process imports the seamfit of the worker that starts it (seamfit.batch.tasks).
     (out / "running" / STOP_FILE).unlink(missing_ok=True)
     started_ray = not ray.is_initialized()
     if started_ray:
-        os.environ["PYTHONPATH"] = env["PYTHONPATH"]     # for the workers Ray starts here
-        kwargs = {"address": address} if address else {"num_cpus": cpus}
         handler = signal.getsignal(signal.SIGTERM)
-        ray.init(include_dashboard=False, log_to_driver=False, logging_level="ERROR", **kwargs)
+        if address:
+            cluster.connect(ray, address, out)       # or a one-line error naming the address
+        else:
+            # the workers Ray starts here import this seamfit
+            package_root = str(Path(__file__).resolve().parents[2])
+            os.environ["PYTHONPATH"] = os.pathsep.join([package_root, *filter(None, [os.environ.get("PYTHONPATH")])])
+            ray.init(include_dashboard=False, log_to_driver=False, logging_level="ERROR", num_cpus=cpus)
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, handler)   # ray.init puts in its own (sys.exit): seamfit's stops the jobs
     try:
+        if address and started_ray:
+            cluster.check_workers(ray, res.threads, say)
         check_fits(ray, res, any(_device(job) == "cuda" for job, _ in todo))
         return _drive(ray, out, jobs, todo, final, status, res, env, say)
     finally:
@@ -210,7 +214,7 @@ def _drive(ray, out, jobs, todo, final, status, res, env, say) -> int:
                 if rec["state"] == "done":
                     say(f"done    {job.id}: exit {rec['exit']}, {rec['seconds']:.1f} s")
                 else:
-                    say(f"FAILED  {job.id}: {rec['reason']} (log: {rec['log']})")
+                    say(f"FAILED  {job.id}: {rec['reason']} (log: {out / rec['log']})", always=True)
             _mark_running(out, status)
             now = time.time()
             if ready or now - last_status > STATUS_EVERY_S:

@@ -39,7 +39,12 @@ def run_job_process(spec: dict, log: str, marker: str, threads: int, env: dict) 
     if attempt > 1 and spec.get("job"):
         sweep_leftovers(Path(spec["out"]), spec["job"])
     log.parent.mkdir(parents=True, exist_ok=True)
-    child_env = {**os.environ, **env, "OMP_NUM_THREADS": str(threads), "PYTHONUNBUFFERED": "1"}
+    # The job runs the seamfit this worker runs (whichever its node's Ray finds: installed, or
+    # by PYTHONPATH), not a path of the driver's machine.
+    here = str(Path(__file__).resolve().parents[2])
+    pythonpath = os.pathsep.join([here, *filter(None, [os.environ.get("PYTHONPATH")])])
+    child_env = {**os.environ, **env, "PYTHONPATH": pythonpath, "OMP_NUM_THREADS": str(threads),
+                 "PYTHONUNBUFFERED": "1"}
     t0 = time.time()
     with open(log, "a", encoding="utf-8") as f:
         f.write(f"--- seamfit batch: attempt {attempt} on {socket.gethostname()}, worker pid {os.getpid()}, "

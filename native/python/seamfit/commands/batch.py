@@ -7,7 +7,8 @@ hash is skipped, so a rerun continues where a stopped one ended. Writes, besides
 folders: logs/<id>.log, jobs/<id>.json (each job's record), bodies/<id>.obj (bodies made
 from measurements), status.json (progress, while it runs), summary.json and summary.csv.
 Exit code 0 when every job's results are written, 1 when a job failed (the others are
-written; a job that exited 1 counts too), 2 on a bad manifest or option (nothing run).
+written; a job that exited 1 counts too), 2 on a bad manifest or option (nothing run), or a
+cluster that cannot be joined or whose nodes do not import this seamfit.
 See docs/batch.md.
 """
 from __future__ import annotations
@@ -33,8 +34,9 @@ def register(subparsers) -> None:
     p.add_argument("--out", metavar="DIR", type=Path, required=True,
                    help="output folder: a folder per job, logs, records, status.json, summary")
     p.add_argument("--address", metavar="ADDR", default=None,
-                   help="a running Ray cluster (ray://host:10001, host:6379 or auto); default: start Ray on "
-                        "this machine")
+                   help="a running Ray cluster (host:6379 as `ray start --head` prints it, ray://host:10001 or "
+                        "auto), whose nodes import this seamfit (checked before any job: docs/batch.md); default: "
+                        "start Ray on this machine")
     p.add_argument("--cpus", metavar="N", type=int, default=None,
                    help="local Ray only: cores to use (default: all)")
     p.add_argument("--threads-per-job", metavar="N", type=int, default=d.threads,

@@ -9,6 +9,17 @@ class SeamfitError(Exception):
         return [" ".join(str(self).split("\n"))]
 
 
+class ProblemsError(SeamfitError):
+    """Several problems found together (a manifest's, a cluster's): one line each."""
+
+    def __init__(self, problems: list[str]):
+        super().__init__("; ".join(problems))
+        self.problems = problems
+
+    def lines(self) -> list[str]:
+        return list(self.problems)
+
+
 class PatternError(SeamfitError):
     """A pattern file or pattern object is invalid."""
 

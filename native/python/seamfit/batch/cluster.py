@@ -21,7 +21,7 @@ import sys
 import threading
 from pathlib import Path
 
-from ..errors import SeamfitError
+from ..errors import ProblemsError, SeamfitError
 
 REACH_TIMEOUT_S = 5.0       # the TCP check of the address
 CONNECT_TIMEOUT_S = 60.0    # ray.init against a cluster: about 2 s when it answers
@@ -29,13 +29,8 @@ CHECK_TIMEOUT_S = 120.0     # the check of the nodes' seamfit (a worker's start 
 CONNECT_LOG = "ray-connect.log"
 
 
-class ClusterError(SeamfitError):
-    def __init__(self, problems: list[str]):
-        super().__init__("; ".join(problems))
-        self.problems = problems
-
-    def lines(self) -> list[str]:
-        return list(self.problems)
+class ClusterError(ProblemsError):
+    pass
 
 
 def connect(ray, address: str, out: Path) -> None:

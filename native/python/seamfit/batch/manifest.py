@@ -25,7 +25,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import SeamfitError
+from ..errors import ProblemsError, SeamfitError
 from . import settings as job_settings
 
 PATH_FIELDS = ("pattern", "base_body", "target_body", "measurements", "size_chart", "truth")
@@ -35,13 +35,8 @@ ID_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,99}$")
 RESERVED_IDS = {"logs", "jobs", "bodies", "running", "status.json", "summary.json", "summary.csv"}
 
 
-class ManifestError(SeamfitError):
-    def __init__(self, problems: list[str]):
-        super().__init__("; ".join(problems))
-        self.problems = problems
-
-    def lines(self) -> list[str]:
-        return list(self.problems)
+class ManifestError(ProblemsError):
+    pass
 
 
 @dataclass

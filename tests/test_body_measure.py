@@ -93,3 +93,26 @@ def test_missing_landmark_is_an_error():
         body_measurements(body, landmarks={"waist_front": 4121})
     with pytest.raises(BodyError, match="not a body height"):
         body_measurements(Body(body.vertices * 100, body.faces, name="cm"))
+
+
+def test_a_remembered_measurement_is_the_same_and_a_copy():
+    from seamfit.body import measure
+    body = load_body(BODIES / "women_size06.obj")
+    measure._memo.clear()
+    first = body_measurements(body, landmarks=LANDMARKS)
+    fresh = measure._measure(body, LANDMARKS, tapes=False)
+    again = body_measurements(load_body(BODIES / "women_size06.obj"), landmarks=json.loads(LANDMARKS.read_text()))
+    assert first == fresh == again
+    first["levels_z_m"]["waist"] = -1.0      # a caller's edit does not reach the next caller
+    assert body_measurements(body, landmarks=LANDMARKS)["levels_z_m"]["waist"] == fresh["levels_z_m"]["waist"]
+    # without landmarks, another measurement (its own levels)
+    assert body_measurements(body)["method"] == "heuristic"
+
+
+def test_a_body_changed_in_place_is_measured_again():
+    body = load_body(BODIES / "women_size06.obj")
+    before = body_measurements(body)
+    body.vertices *= 1.05
+    after = body_measurements(body)
+    assert after["height"] == pytest.approx(1.05 * before["height"], rel=1e-9)
+    assert after["hip"] > before["hip"]

@@ -24,7 +24,11 @@ bisection to 1 mm).
 """
 from __future__ import annotations
 
+import copy
+import hashlib
 import json
+import threading
+from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
@@ -263,7 +267,46 @@ def body_measurements(body: Body, landmarks=None, tapes: bool = False) -> dict:
     waist, under-bust and neck rings) also underbust, shoulder, nape_to_waist,
     waist_to_hip, upper_arm, thigh, neck and inseam (measure_landmarks.py), each taken where
     its landmarks are given. With ``tapes``, ``result["tapes"]`` holds a
-    :class:`seamfit.body.tape.Tape` per measurement, to re-take it on a reshaped body."""
+    :class:`seamfit.body.tape.Tape` per measurement, to re-take it on a reshaped body.
+
+    Each call returns a dict of its own; without ``tapes`` it may be a copy of one measured
+    earlier on a mesh with the same vertices and faces (see ``_remembered``)."""
+    if tapes:
+        return _measure(body, landmarks, tapes=True)
+    lm = _load_landmarks(landmarks) if landmarks is not None else None
+    return _remembered(body, lm)
+
+
+# A grading measures the same two bodies several times (level scaling, the ease, the
+# scaling baseline), at about 0.1 s each: the last few results are kept, keyed by the
+# mesh's content and the landmarks, so a body changed in place is measured afresh.
+_MEMO_SIZE = 8
+_memo: OrderedDict = OrderedDict()
+_memo_lock = threading.Lock()
+
+
+def _remembered(body: Body, lm: dict | None) -> dict:
+    h = hashlib.blake2b(digest_size=20)
+    for a in (body.vertices, body.faces):
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(a.data)
+    h.update(json.dumps(lm, sort_keys=True).encode())
+    key = h.hexdigest()
+    with _memo_lock:
+        found = _memo.get(key)
+        if found is not None:
+            _memo.move_to_end(key)
+    if found is None:
+        found = _measure(body, lm, tapes=False)
+        with _memo_lock:
+            _memo[key] = found
+            while len(_memo) > _MEMO_SIZE:
+                _memo.popitem(last=False)
+    return copy.deepcopy(found)
+
+
+def _measure(body: Body, landmarks, tapes: bool) -> dict:
     s = _Slicer(body)
     s.where = body.where
     z0, H = s.z0, s.H

@@ -21,7 +21,8 @@ levels it is interpolated, and where the garment hangs free (a skirt below the s
 flare below the waist) it is the growth of the level it hangs from. A level that cuts an
 opening's edge (a waistline rising to the side seams, a dipping hem) and finds less cloth
 than its tape is part of a section, no girth: it stretches as the nearest level that is
-one. The pattern whose triangle gradients best match those stretches (a
+one. Sleeves are measured around the arm instead (seamfit.opt.sleeves). The pattern whose
+triangle gradients best match those stretches (a
 sparse least-squares solve per panel, the same kind of solve as a Poisson problem) is the
 level-scaled pattern. Equal bodies give the base pattern back exactly.
 """
@@ -37,6 +38,7 @@ from ..body.measure import _Slicer, body_measurements
 from .costs import sample_sdf
 from .fit import hull as _hull
 from .fit import mesh_cross_section, torso_cloth
+from .sleeves import sleeve_targets
 
 # A garment vertex this close to the body (m) is held by it (the drape rests on the
 # contact barrier, about 1-3 mm out; hanging cloth is centimetres away).
@@ -241,11 +243,18 @@ def _enclosed_growth(slicer: _Slicer, target_v: np.ndarray, z: float, garment_pt
     return g, _hull_perimeter(h0), _hull_perimeter(h1)
 
 
-def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | None = None) -> dict:
+def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | None = None,
+                  skip=None) -> dict:
     """Per level z of the base garment: G (garment girth), dH (growth of the enclosed body
     girth where the body supports the garment, interpolated between such levels and taken
-    from the nearest one where the garment hangs) and sx = 1 + dH / G."""
+    from the nearest one where the garment hangs) and sx = 1 + dH / G. Triangles in the
+    mask ``skip`` (sleeves, graded around the arm) are not part of any level."""
     tri = np.asarray(mesh.triangles)
+    own = np.ones(len(xbar), dtype=bool)
+    if skip is not None and np.any(skip):
+        tri = tri[~np.asarray(skip)]
+        own[:] = False
+        own[tri.ravel()] = True
     s0 = _Slicer(base_body)
     tv = np.asarray(target_body.vertices, dtype=float)
     zmin, zmax = float(xbar[:, 2].min()), float(xbar[:, 2].max())
@@ -256,6 +265,7 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
     G = np.full(len(zs), np.nan)
     dH = np.full(len(zs), np.nan)
     around = openings(mesh, xbar)
+    around = around[own[around[:, 0]] & own[around[:, 1]]] if len(around) else around
     for k, z in enumerate(zs):
         g0, h0, h1 = _enclosed_growth(s0, tv, z, mesh_cross_section(xbar, tri, z))
         if (np.isfinite(g0) and _crosses(xbar, around, z)
@@ -264,7 +274,7 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
         G[k] = g0
         # The body sets a level's girth where most of the garment's section rests on it;
         # where a few points graze it (a flare touching the seat) the garment hangs.
-        band = np.abs(xbar[:, 2] - z) < LEVEL_STEP_M
+        band = own & (np.abs(xbar[:, 2] - z) < LEVEL_STEP_M)
         if band.any() and np.mean(phi[band] < CONTACT_M) >= SUPPORT_FRACTION and np.isfinite(h1):
             dH[k] = h1 - h0
     # Below a supported hip, a garment closed around both legs (its section is one loop:
@@ -293,8 +303,10 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
     return {"z": zs, "G": G, "dH": dH, "sx": sx, "hip_supported": hip_supported}
 
 
-def _stretch_targets(mesh, xbar, profile, zmap):
-    """Per triangle the 2x2 target gradient S_t of the new pattern against the base one."""
+def _stretch_targets(mesh, xbar, profile, zmap, sleeves=None):
+    """Per triangle the 2x2 target gradient S_t of the new pattern against the base one;
+    ``sleeves`` (mask, sx, up) gives sleeve triangles the arm's girth stretch and its
+    direction in place of the vertical."""
     tri = np.asarray(mesh.triangles)
     p = 0.01 * np.asarray(mesh.uv_cm, dtype=float)
     zb, zt = zmap
@@ -312,8 +324,12 @@ def _stretch_targets(mesh, xbar, profile, zmap):
     # pattern's "down" is the pullback of the vertical; the tape runs across it.
     n = np.cross(E3[:, :, 0], E3[:, :, 1])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-    up = np.array([0.0, 0.0, 1.0])
-    v3 = up[None, :] - n[:, 2:3] * n
+    up = np.tile([0.0, 0.0, 1.0], (len(tri), 1))
+    if sleeves is not None and np.any(sleeves[0]):
+        mask, sx_arm, up_arm = sleeves
+        sx = np.where(mask, sx_arm, sx)
+        up[mask] = up_arm[mask]
+    v3 = up - np.sum(n * up, axis=1, keepdims=True) * n
     FtF = np.einsum("tki,tkj->tij", F, F)
     v2 = np.linalg.solve(FtF, np.einsum("tki,tk->ti", F, v3)[:, :, None])[:, :, 0]
     # Where the cloth lies nearly flat (a shoulder), fall back to the grain: v is the
@@ -364,12 +380,13 @@ def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return
     levels = base_levels(base_body)             # measured once: the slowest part of the start
     one_tube = passes_crotch_as_one_tube(mesh, xbar, base_body, levels)
     zmap = level_map(base_body, target_body, levels=levels, crotch=not one_tube)
-    prof = girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels)
+    sleeves = sleeve_targets(mesh, xbar, base_body, target_body, levels)
+    prof = girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels, skip=sleeves[0])
     if one_tube and prof["hip_supported"]:
         # A skirt or dress the seat holds is drafted down from the waist by the body's
         # waist-to-hip: its seat line moves with that length, not with the stature.
         zmap = with_seat_line(zmap, base_body, target_body)
-    S, E2 = _stretch_targets(mesh, xbar, prof, zmap)
+    S, E2 = _stretch_targets(mesh, xbar, prof, zmap, sleeves)
     p = _solve_gradients(mesh, S, E2)
     if return_info:
         return p, {"levels": zmap, "profile": prof}

@@ -139,15 +139,3 @@ def test_preloaded_matplotlib_is_ready_before_drawing(tmp_path):
     assert p.returncode == 0, p.stderr
     assert p.stdout.strip() == "{'d.png': {'written': True}}"
     assert (tmp_path / "d.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-
-
-def test_preload_starts_at_the_search_and_passes_every_event_on(monkeypatch):
-    from seamfit.commands.grade import search_events
-    started, seen = [], []
-    monkeypatch.setattr(pictures, "preload", lambda: started.append(len(seen)))
-    tell = pictures.preload_at(search_events(), seen.append)
-    for stage in ("mesh", "sdf", "level scaling", "initialize", "initial drape", "optimize"):
-        assert tell({"stage": stage}) is None
-    assert [e["stage"] for e in seen] == ["mesh", "sdf", "level scaling", "initialize", "initial drape", "optimize"]
-    assert started[0] == 3          # at "initialize", before that event was passed on
-    assert pictures.preload_at({"optimize"})({"stage": "optimize"}) is None     # -q: no one to tell

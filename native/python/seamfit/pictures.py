@@ -6,13 +6,10 @@ because matplotlib is missing (Blender's Python, a ``--no-deps`` install) or the
 fails, costs only that picture: one warning line on stderr and a ``pictures`` entry in
 the report saying which picture is missing and why.
 
-``preload()`` starts importing matplotlib on a background thread while the computation
-runs, so that the import (a quarter of a second, longer on a first run that builds
-matplotlib's font cache) overlaps it instead of following it; the results are still written
-first and the pictures still land in the same output set. It is started where the
-computation runs native code that leaves Python free (the drape, the search's drapes):
-started at a command's start, the import held back the Python-bound meshing and level
-scaling by as much as it saved at the end.
+``preload()`` starts importing matplotlib on a background thread when a command begins, so
+that the import (a quarter of a second, longer on a first run that builds matplotlib's font
+cache) overlaps the computation instead of following it; the results are still written
+first and the pictures still land in the same output set.
 """
 from __future__ import annotations
 
@@ -35,16 +32,6 @@ def preload() -> None:
     if _preloading is None and "matplotlib.pyplot" not in sys.modules:
         _preloading = threading.Thread(target=_import_matplotlib, name="seamfit-matplotlib-import", daemon=True)
         _preloading.start()
-
-
-def preload_at(stages, tell: Callable[[dict], object] | None = None) -> Callable[[dict], object]:
-    """A progress callback for seamfit.opt: passes every event on to ``tell`` and starts
-    :func:`preload` at the first event whose stage is one of ``stages``."""
-    def wrapped(info: dict):
-        if info.get("stage") in stages:
-            preload()
-        return None if tell is None else tell(info)
-    return wrapped
 
 
 def _import_matplotlib() -> None:

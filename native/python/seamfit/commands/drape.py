@@ -111,6 +111,8 @@ def run(args) -> int:
     # the checks of seamfit validate and the size limits, before any meshing or SDF
     pattern = checked_pattern(args.pattern, args.edge_length, warn)
     body = checked_body(args.body, warn)
+    if not args.no_picture:
+        preload()       # matplotlib's import overlaps the drape
     # Named stages, the share done and the time left: a bar on a terminal, plain lines in
     # a log (seamfit.progress); -q: none.
     from ..progress import ConsoleProgress, for_drape
@@ -177,8 +179,7 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -
         return True
 
     stage("drape")
-    if not args.no_picture:
-        preload()       # matplotlib's import runs beside the drape's native solve
+
     if args.no_coarse_start:
         result = sim.drape(x0, progress=progress)
     else:

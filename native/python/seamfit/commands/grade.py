@@ -22,7 +22,7 @@ import sys
 from pathlib import Path
 
 from ..output_set import OutputSet, add_force_argument
-from ..pictures import draw_pictures, preload_at, skipped, written
+from ..pictures import draw_pictures, preload, skipped, written
 
 PICTURES = ("pattern.png", "drape.png")
 
@@ -145,6 +145,8 @@ def run(args) -> int:
     target_body = checked_body(args.target_body, warn)
     target_body, registration = _registered_target(args, base_body, target_body)
     settings = settings_from_args(args, base_pattern)
+    if not args.no_picture:
+        preload()       # matplotlib's import overlaps the grading
     # Named stages, the share done and the time left: a bar on a terminal, plain lines in
     # a log (seamfit.progress); -q: none.
     from ..progress import ConsoleProgress, for_grading
@@ -256,16 +258,8 @@ def _grade(args, settings, progress, base_pattern, base_body, target_body, truth
            registration=None) -> dict:
     """Grade, then write the set into ``tmp`` (moved to --out afterwards); the report."""
     from ..opt.grade import grade
-    tell = progress if args.no_picture else preload_at(search_events(), progress)
-    result = grade(base_pattern, base_body, target_body, settings, progress=tell)
+    result = grade(base_pattern, base_body, target_body, settings, progress=progress)
     return write_graded(args, result, progress, base_pattern, base_body, target_body, truth, tmp, registration)
-
-
-def search_events() -> frozenset:
-    """seamfit.opt's progress events of the search's drapes, where matplotlib's import starts
-    (seamfit.pictures.preload_at)."""
-    from ..progress import EVENT_STAGES
-    return frozenset(raw for raw, shown in EVENT_STAGES.items() if shown in ("initial drapes", "optimizing"))
 
 
 def write_graded(args, result, progress, base_pattern, base_body, target_body, truth, tmp: Path,

@@ -26,8 +26,8 @@ from pathlib import Path
 
 from ..errors import SeamfitError
 from ..output_set import OutputSet, add_force_argument
-from .grade import (PICTURES, _registered_target, add_grade_options, check_grade_options, search_events,
-                    settings_from_args, write_graded)
+from .grade import (PICTURES, _registered_target, add_grade_options, check_grade_options, settings_from_args,
+                    write_graded)
 
 NEST_PICTURES = ("nest.png",)
 
@@ -79,6 +79,9 @@ def run(args) -> int:
         raise SeamfitError(f"{args.size_chart or 'target bodies'}: two sizes share a name "
                            f"({', '.join(labels)}); give each size its own name")
     settings = settings_from_args(args, base_pattern)
+    if not args.no_picture:
+        from ..pictures import preload
+        preload()       # matplotlib's import overlaps the first size's grading
     inputs = [args.pattern, args.base_body, *(args.target_bodies or []), args.size_chart]
     with OutputSet(out, inputs=inputs, force=args.force) as tmp:
         if sets is not None:
@@ -166,7 +169,7 @@ def _run(args, settings, base_pattern, base_body, targets, base_index, base_labe
     import time
     from ..fileio import atomic_write_text, json_default
     from ..opt.size_run import run_sizes, summary_row
-    from ..pictures import draw_pictures, preload_at, skipped
+    from ..pictures import draw_pictures, skipped
     from ..progress import ConsoleProgress, for_grading
 
     t0 = time.perf_counter()
@@ -178,12 +181,12 @@ def _run(args, settings, base_pattern, base_body, targets, base_index, base_labe
     progress: dict = {}
 
     def progress_for(label):
-        if not args.quiet:
-            print(f"seamfit grade-run: size {label}", file=sys.stderr)
-            progress[label] = ConsoleProgress(for_grading(
-                base_pattern, settings, writing=True, pictures=0 if args.no_picture else len(PICTURES)))
-        tell = progress.get(label)
-        return tell if args.no_picture else preload_at(search_events(), tell)
+        if args.quiet:
+            return None
+        print(f"seamfit grade-run: size {label}", file=sys.stderr)
+        progress[label] = ConsoleProgress(for_grading(
+            base_pattern, settings, writing=True, pictures=0 if args.no_picture else len(PICTURES)))
+        return progress[label]
 
     def on_size(done):
         folder = tmp / folders[done.label]

@@ -111,31 +111,3 @@ def test_no_picture_is_recorded_without_a_warning(capsys):
     assert pictures.skipped(["drape.png"]) == {"drape.png": {"written": False, "reason": "--no-picture"}}
     pictures.warn_missing(pictures.skipped(["drape.png"]), "drape")
     assert capsys.readouterr().err == ""
-
-
-# A fresh interpreter: the preload imports matplotlib on its own thread, and drawing waits
-# for it before it draws.
-PRELOAD = """
-import sys, threading
-from pathlib import Path
-from seamfit import pictures
-pictures.preload()
-loader = pictures._preloading
-assert loader is not None and loader is not threading.current_thread()
-def draw(path):
-    assert not loader.is_alive() and 'matplotlib.pyplot' in sys.modules
-    from seamfit.sim.render import render_drape
-    import numpy as np
-    render_drape(path, np.array([[0, 0, 1.0], [0.1, 0, 1.0], [0, 0, 1.1]]), np.array([[0, 1, 2]]))
-print(pictures.draw_pictures(Path(sys.argv[1]), {'d.png': draw}, command='drape'))
-"""
-
-
-def test_preloaded_matplotlib_is_ready_before_drawing(tmp_path):
-    path = [str(Path(seamfit.__file__).parents[1]), os.environ.get("PYTHONPATH", "")]
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in path if p))
-    p = subprocess.run([sys.executable, "-c", PRELOAD, str(tmp_path)], capture_output=True, text=True, env=env,
-                       timeout=300)
-    assert p.returncode == 0, p.stderr
-    assert p.stdout.strip() == "{'d.png': {'written': True}}"
-    assert (tmp_path / "d.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -5,16 +5,10 @@
 because matplotlib is missing (Blender's Python, a ``--no-deps`` install) or the drawing
 fails, costs only that picture: one warning line on stderr and a ``pictures`` entry in
 the report saying which picture is missing and why.
-
-``preload()`` starts importing matplotlib on a background thread when a command begins, so
-that the import (a quarter of a second, longer on a first run that builds matplotlib's font
-cache) overlaps the computation instead of following it; the results are still written
-first and the pictures still land in the same output set.
 """
 from __future__ import annotations
 
 import sys
-import threading
 from pathlib import Path
 from typing import Callable, Mapping
 
@@ -22,40 +16,10 @@ NOT_INSTALLED = "matplotlib is not installed (pip install matplotlib draws it)"
 SKIPPED = "--no-picture"
 
 
-_preloading: threading.Thread | None = None
-
-
-def preload() -> None:
-    """Start importing matplotlib's drawing modules on a background thread (once per
-    process). A missing or broken matplotlib is left for the drawing to report."""
-    global _preloading
-    if _preloading is None and "matplotlib.pyplot" not in sys.modules:
-        _preloading = threading.Thread(target=_import_matplotlib, name="seamfit-matplotlib-import", daemon=True)
-        _preloading.start()
-
-
-def _import_matplotlib() -> None:
-    try:
-        import matplotlib
-        matplotlib.use("Agg")     # what every drawer asks for first
-        import matplotlib.backends.backend_agg
-        import matplotlib.collections
-        import matplotlib.pyplot
-    except Exception:             # drawing meets the same error and reports it
-        pass
-
-
-def _preloaded() -> None:
-    """Wait for a preload still running: drawing then imports nothing beside it."""
-    if _preloading is not None:
-        _preloading.join()
-
-
 def draw_pictures(folder: Path, drawers: Mapping[str, Callable[[Path], object]], *, command: str) -> dict:
     """Draw each ``folder / name`` with its drawer. Returns the report's ``pictures`` entry,
     ``{name: {"written": True}}`` or ``{name: {"written": False, "reason": ...}}``, after one
     warning line on stderr per reason for the pictures that are missing."""
-    _preloaded()
     status = {}
     for name, draw in drawers.items():
         path = Path(folder) / name

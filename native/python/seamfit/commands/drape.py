@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 from ..output_set import OutputSet, add_force_argument
-from ..pictures import draw_pictures, preload, skipped
+from ..pictures import draw_pictures, skipped
 
 EPILOG = """\
 The garment starts from the pattern's placement (GarmentCode: exact; FreeSewing:
@@ -111,8 +111,6 @@ def run(args) -> int:
     # the checks of seamfit validate and the size limits, before any meshing or SDF
     pattern = checked_pattern(args.pattern, args.edge_length, warn)
     body = checked_body(args.body, warn)
-    if not args.no_picture:
-        preload()       # matplotlib's import overlaps the drape
     # Named stages, the share done and the time left: a bar on a terminal, plain lines in
     # a log (seamfit.progress); -q: none.
     from ..progress import ConsoleProgress, for_drape

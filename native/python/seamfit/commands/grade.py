@@ -22,7 +22,7 @@ import sys
 from pathlib import Path
 
 from ..output_set import OutputSet, add_force_argument
-from ..pictures import draw_pictures, preload, skipped, written
+from ..pictures import draw_pictures, skipped, written
 
 PICTURES = ("pattern.png", "drape.png")
 
@@ -145,8 +145,6 @@ def run(args) -> int:
     target_body = checked_body(args.target_body, warn)
     target_body, registration = _registered_target(args, base_body, target_body)
     settings = settings_from_args(args, base_pattern)
-    if not args.no_picture:
-        preload()       # matplotlib's import overlaps the grading
     # Named stages, the share done and the time left: a bar on a terminal, plain lines in
     # a log (seamfit.progress); -q: none.
     from ..progress import ConsoleProgress, for_grading

@@ -79,9 +79,6 @@ def run(args) -> int:
         raise SeamfitError(f"{args.size_chart or 'target bodies'}: two sizes share a name "
                            f"({', '.join(labels)}); give each size its own name")
     settings = settings_from_args(args, base_pattern)
-    if not args.no_picture:
-        from ..pictures import preload
-        preload()       # matplotlib's import overlaps the first size's grading
     inputs = [args.pattern, args.base_body, *(args.target_bodies or []), args.size_chart]
     with OutputSet(out, inputs=inputs, force=args.force) as tmp:
         if sets is not None:

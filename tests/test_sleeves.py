@@ -118,3 +118,20 @@ def test_a_garment_without_sleeves_keeps_its_levels(body_arms):
     mesh = SimpleNamespace(triangles=tri, vertex_panel=np.zeros(96, int), panel_names=["body"])
     mask, sx, up = sleeve_targets(mesh, x, body, body, levels)
     assert not mask.any() and np.all(sx == 1.0) and np.all(up == [0.0, 0.0, 1.0])
+
+
+def test_an_arm_joined_to_the_body_lower_down_keeps_only_its_own_vertices(body_arms):
+    from seamfit.opt.sleeves import arm_lines
+    body, levels, arms = body_arms
+    v = np.asarray(body.vertices)
+    arm = max(arms, key=lambda a: a["P"][-1, 0])            # the arm on +x
+    hand = arm["vertices"][np.argmin(v[arm["vertices"], 2])]
+    # a triangle from the hand's lowest vertex to the two nearest vertices of the other
+    # side's hip makes the arm and the torso one piece of mesh below the armpit
+    torso = np.flatnonzero((np.abs(v[:, 0]) < 0.12) & (v[:, 2] < levels["armpit"] - 0.1))
+    near = torso[np.argsort(np.linalg.norm(v[torso] - v[hand], axis=1))[:2]]
+    joined = replace(body, faces=np.vstack([body.faces, [[hand, near[0], near[1]]]]).astype(body.faces.dtype))
+    arms2 = arm_lines(joined, levels)
+    right = [a for a in arms2 if a["P"][-1, 0] > 0]
+    assert len(right) == 1
+    assert np.all(v[right[0]["vertices"], 0] > 0.1)           # no torso vertex is the arm's

@@ -71,9 +71,12 @@ def arm_lines(base_body, levels: dict) -> list[dict]:
                                                   shape=(len(V), len(V))), directed=False)
     out = []
     for side in (1.0, -1.0):
-        pts, radii, verts, ends = [], [], [], []
+        pts, radii, verts, torso_v = [], [], [], []
         for z in np.arange(armpit - ARM_STEP_M, crotch, -ARM_STEP_M):
             torso = {id(t) for t in s.torso(z)[0]}
+            a, b, t, _ = s.cut(z)
+            ti = s.torso_ids(z)
+            torso_v.append(np.concatenate([a[ti], b[ti]]))
             cands = [(segs, ids) for segs, ids in zip(s.loops(z), s.loop_ids(z))
                      if id(segs) not in torso and side * (_loop_centroid(segs)[0] - s.axis[0]) > 0]
             if not cands:
@@ -82,9 +85,7 @@ def arm_lines(base_body, levels: dict) -> list[dict]:
             c = _loop_centroid(segs)
             pts.append([c[0], c[1], z])
             radii.append(float(np.median(np.linalg.norm(segs.reshape(-1, 2) - c, axis=1))))
-            a, b, t, _ = s.cut(z)
             verts.append(np.concatenate([a[ids], b[ids]]))
-            ends.append((a[ids], b[ids], t[ids]))
         if len(pts) < 5:
             continue
         P = np.asarray(pts)
@@ -96,11 +97,14 @@ def arm_lines(base_body, levels: dict) -> list[dict]:
         cap = P[0] + ARM_STEP_M * np.arange(CAP_SAMPLES, 0, -1)[:, None] * up
         P = np.vstack([cap, P])
         A = np.vstack([np.repeat(A[:1], CAP_SAMPLES, axis=0), A])
-        seeds = np.unique(np.concatenate(verts))
-        pieces = np.unique(piece[seeds])
+        # An arm that touches the body lower down (a hand on the hip) shares its piece
+        # with the torso: then only its own sections' vertices are the arm's.
+        pieces = np.setdiff1d(piece[np.concatenate(verts)], piece[np.concatenate(torso_v)])
         arm_v = np.flatnonzero(np.isin(piece, pieces) & (V[:, 2] < armpit - ARM_STEP_M))
+        if len(arm_v) == 0:
+            arm_v = np.unique(np.concatenate(verts))
         out.append({"P": P, "A": A, "radius": float(np.median(radii)), "vertices": arm_v,
-                    "armpit": armpit - ARM_STEP_M, "ends": (ends[0], ends[-1])})
+                    "armpit": armpit - ARM_STEP_M})
     return out
 
 

@@ -135,3 +135,21 @@ def test_an_arm_joined_to_the_body_lower_down_keeps_only_its_own_vertices(body_a
     right = [a for a in arms2 if a["P"][-1, 0] > 0]
     assert len(right) == 1
     assert np.all(v[right[0]["vertices"], 0] > 0.1)           # no torso vertex is the arm's
+
+
+def test_a_sleeve_no_plane_measures_keeps_the_torso_s_levels(body_arms, monkeypatch):
+    from seamfit.opt import sleeves
+    body, levels, arms = body_arms
+    arm = arms[0]
+    x, tri = _tube(arm, range(sleeves.CAP_SAMPLES + 1, sleeves.CAP_SAMPLES + 14), 1.4 * arm["radius"])
+    mesh = SimpleNamespace(triangles=tri, vertex_panel=np.zeros(len(x), int), panel_names=["sleeve"])
+    mask, sx, up = sleeves.sleeve_targets(mesh, x, body, _arm_widened(body, arm, 1.1), levels)
+    assert mask.all() and np.all(sx > 1.0)                    # measured around the arm
+    assert np.allclose(np.linalg.norm(up, axis=1), 1.0) and np.all(up[:, 2] > 0)
+
+    def unmeasured(arm, base_body, target_body, x_rot_tri):
+        n = len(arm["P"])
+        return {"sx": np.ones(n), "G": np.full(n, np.nan), "H": np.full(n, np.nan), "dH": np.full(n, np.nan)}
+    monkeypatch.setattr(sleeves, "_arm_profile", unmeasured)
+    mask, sx, up = sleeves.sleeve_targets(mesh, x, body, body, levels)
+    assert not mask.any() and np.all(sx == 1.0)

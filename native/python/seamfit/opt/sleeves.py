@@ -209,6 +209,8 @@ def sleeve_targets(mesh, xbar, base_body, target_body, levels: dict):
             return (xbar - origin) @ R.T, tri_i
 
         prof = _arm_profile(arm, base_body, target_body, x_rot_tri)
+        if not np.isfinite(prof["dH"]).any():
+            continue            # no plane measured the sleeve: it keeps the torso's levels
         _, k = cKDTree(arm["P"]).query(cent[mine])
         mask[mine] = True
         sx[mine], up[mine] = prof["sx"][k], -arm["A"][k]

@@ -63,6 +63,12 @@ def test_writes_pattern_nest_drape_and_report(graded):
         assert key in rep, key
 
 
+def test_the_report_says_what_the_start_measured(graded):
+    _, rep = graded
+    # a pencil skirt: held by the seat, so its seat line follows the waist-to-hip; no sleeves
+    assert rep["start"] == {"from": "level scaling", "sleeve_panels": [], "seat_line": True}
+
+
 def test_adjusted_pattern_keeps_the_structure(graded):
     out, _ = graded
     base, res = load_pattern(PATTERN), load_pattern(out / "pattern.json")

@@ -389,5 +389,8 @@ def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return
     S, E2 = _stretch_targets(mesh, xbar, prof, zmap, sleeves)
     p = _solve_gradients(mesh, S, E2)
     if return_info:
-        return p, {"levels": zmap, "profile": prof}
+        tri_panel = np.asarray(mesh.vertex_panel)[np.asarray(mesh.triangles)[:, 0]]
+        sleeve_panels = [mesh.panel_names[k] for k in np.unique(tri_panel[sleeves[0]])]
+        return p, {"levels": zmap, "profile": prof, "sleeve_panels": sleeve_panels,
+                   "seat_line": bool(one_tube and prof["hip_supported"])}
     return p

@@ -159,6 +159,7 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
         "drape": {"max_sewing_gap_mm": float(gaps.max() * 1000) if len(gaps) else 0.0,
                   "min_phi_mm": float(phi.min() * 1000)},
         "base_drape": ctx.base_info,
+        "start": ctx.extra.get("start"),
         "initialization": out.initialization or {"objective_history": [], "message": "not used by this method"},
         "mesh": {"vertices": int(len(mesh.uv_cm)), "triangles": int(len(mesh.triangles)),
                  "edge_length_cm": settings.edge_length_cm},

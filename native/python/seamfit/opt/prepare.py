@@ -205,9 +205,14 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     # The measurement-aware start: theta^(0) and the anchor of R^fix and R^cur
     # (docs/method.md, "Level scaling"); "base" is the paper's (Section 7 from theta-bar).
     theta_level = None
+    start = {"from": "base pattern"}
     if getattr(settings, "start", "level") == "level":
         tell(stage="level scaling")
-        theta_level = param.theta_of(level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf))
+        p_level, info = level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, return_info=True)
+        theta_level = param.theta_of(p_level)
+        # what the start measured, for the report: panels graded around the arm, and
+        # whether the seat line moved with the body's waist-to-hip
+        start = {"from": "level scaling", "sleeve_panels": info["sleeve_panels"], "seat_line": info["seat_line"]}
     # R^fix shapes the preconditioner; in f it would pull the pattern back to the base
     # (docs/grading.md, "R^fix in the preconditioner only").
     regs = Regularizers(param, strengths.fix, strengths.cur,
@@ -239,6 +244,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         exact_tolerance=exact_tolerance, progress=progress, t_start=t_start)
     ctx.extra["sdf"] = {"requested": region, "base": base_field, "target": target_field}
     ctx.extra["theta_level"] = theta_level
+    ctx.extra["start"] = start
     ctx.extra["device_choice"] = device_choice
     ctx.extra["shared"] = shared
     if settings.evaluate_base_pattern:

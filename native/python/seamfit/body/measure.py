@@ -44,6 +44,16 @@ __all__ = ["MEASUREMENTS", "body_measurements", "cross_section_girth", "cross_se
 _COARSE = 0.005  # level scan step (m); extrema are then refined to 1 mm
 
 
+def encloses(segs, x: float, y: float) -> bool:
+    """Whether the loop of xy segments (k, 2, 2) goes around the point (x, y): ray-crossing
+    parity along +x."""
+    p, q = segs[:, 0], segs[:, 1]
+    straddle = (p[:, 1] > y) != (q[:, 1] > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xc = p[:, 0] + (y - p[:, 1]) * (q[:, 0] - p[:, 0]) / (q[:, 1] - p[:, 1])
+    return int(np.count_nonzero(straddle & (xc > x))) % 2 == 1
+
+
 class _Slicer:
     def __init__(self, body: Body):
         self.V = body.vertices
@@ -139,15 +149,7 @@ class _Slicer:
     def torso(self, z: float):
         """Loops of the section at z that enclose the centre axis (ray-crossing parity)."""
         loops = self.loops(z)
-        ax, ay = self.axis
-        keep = []
-        for segs in loops:
-            p, q = segs[:, 0], segs[:, 1]
-            straddle = (p[:, 1] > ay) != (q[:, 1] > ay)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                x = p[:, 0] + (ay - p[:, 1]) * (q[:, 0] - p[:, 0]) / (q[:, 1] - p[:, 1])
-            if int(np.count_nonzero(straddle & (x > ax))) % 2 == 1:
-                keep.append(segs)
+        keep = [segs for segs in loops if encloses(segs, *self.axis)]
         if not keep:  # a torso whose section misses the axis point still spans the midline
             keep = [segs for segs in loops if self.spans_midline(segs)]
         return keep, len(loops)

@@ -21,7 +21,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay, cKDTree
 
-from ..body.measure import _hull_perimeter, _Slicer
+from ..body.measure import _hull_perimeter, _Slicer, encloses
 from .fit import hull as _hull
 from .fit import mesh_cross_section
 
@@ -43,7 +43,10 @@ def _planar_perimeter(q) -> float:
 
 
 def _frame(direction):
-    """Rows: two unit vectors across ``direction`` and ``direction`` itself."""
+    """Rows: two unit vectors across ``direction`` and ``direction`` itself. (Like
+    measure_landmarks._frame but for its helper axis; the sleeves' planes are measured in
+    this frame, and a change of frame moves the graded t-shirts by up to 0.1 cm through the
+    search's sensitivity to the last digits.)"""
     a = direction / np.linalg.norm(direction)
     helper = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(a, helper)
@@ -75,9 +78,9 @@ def arm_lines(base_body, levels: dict) -> list[dict]:
         for z in np.arange(armpit - ARM_STEP_M, crotch, -ARM_STEP_M):
             torso = {id(t) for t in s.torso(z)[0]}
             a, b, t, _ = s.cut(z)
-            ti = s.torso_ids(z)
-            torso_v.append(np.concatenate([a[ti], b[ti]]))
-            cands = [(segs, ids) for segs, ids in zip(s.loops(z), s.loop_ids(z))
+            loops = list(zip(s.loops(z), s.loop_ids(z)))
+            torso_v += [np.concatenate([a[ids], b[ids]]) for segs, ids in loops if id(segs) in torso]
+            cands = [(segs, ids) for segs, ids in loops
                      if id(segs) not in torso and side * (_loop_centroid(segs)[0] - s.axis[0]) > 0]
             if not cands:
                 break
@@ -99,7 +102,8 @@ def arm_lines(base_body, levels: dict) -> list[dict]:
         A = np.vstack([np.repeat(A[:1], CAP_SAMPLES, axis=0), A])
         # An arm that touches the body lower down (a hand on the hip) shares its piece
         # with the torso: then only its own sections' vertices are the arm's.
-        pieces = np.setdiff1d(piece[np.concatenate(verts)], piece[np.concatenate(torso_v)])
+        torso_pieces = piece[np.concatenate(torso_v)] if torso_v else np.zeros(0, piece.dtype)
+        pieces = np.setdiff1d(piece[np.concatenate(verts)], torso_pieces)
         arm_v = np.flatnonzero(np.isin(piece, pieces) & (V[:, 2] < armpit - ARM_STEP_M))
         if len(arm_v) == 0:
             arm_v = np.unique(np.concatenate(verts))
@@ -144,18 +148,13 @@ def _arm_profile(arm, base_body, target_body, x_rot_tri) -> dict:
     G, H, dH = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
     for k in range(n):
         R = _frame(A[k])
-        body = SimpleNamespace(vertices=(V - P[k]) @ R.T, faces=F)
-        s = _Slicer(body)
+        s = _Slicer(SimpleNamespace(vertices=(V - P[k]) @ R.T, faces=F))
         loops, loop_ids = s.loops(0.0), s.loop_ids(0.0)
         a, b, t, pts = s.cut(0.0)
-        # the loop round the centre line (ray-crossing parity from the origin)
+        # the loop round the centre line
         mine = None
         for segs, ids in zip(loops, loop_ids):
-            p, q = segs[:, 0], segs[:, 1]
-            straddle = (p[:, 1] > 0) != (q[:, 1] > 0)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                xc = p[:, 0] - p[:, 1] * (q[:, 0] - p[:, 0]) / (q[:, 1] - p[:, 1])
-            if int(np.count_nonzero(straddle & (xc > 0))) % 2 == 1:
+            if encloses(segs, 0.0, 0.0):
                 mine = ids
         if mine is None or np.linalg.norm(pts[mine], axis=1).max() > ARM_REACH * r:
             continue

@@ -53,6 +53,36 @@ def test_obj_custom_positions_and_replace(mesh, tmp_path):
     assert np.array_equal(read_obj_positions(path), back)             # failed writes left it whole
 
 
+def _savetxt_obj(mesh, x) -> str:
+    """The file as written with np.savetxt row by row, before the rows were formatted in
+    one call: the writer must still produce these exact bytes."""
+    import io
+    out = io.StringIO()
+    out.write("# seamfit sewn mesh: v in metres, vt = pattern (u, v) in cm, one group per panel\n")
+    if mesh.source_file:
+        out.write(f"# pattern {mesh.source_file}\n")
+    out.write(f"# edge length {mesh.edge_length_cm:g} cm, {mesh.n_vertices} vertices, "
+              f"{len(mesh.triangles)} triangles, {len(mesh.sewing_pairs)} sewing pairs\n")
+    np.savetxt(out, x, fmt="v %.17g %.17g %.17g")
+    np.savetxt(out, mesh.uv_cm, fmt="vt %.17g %.17g")
+    for k, name in enumerate(mesh.panel_names):
+        out.write(f"g {name}\n")
+        tri = mesh.triangles[mesh.triangle_panel == k].astype(np.int64) + 1
+        np.savetxt(out, np.repeat(tri, 2, axis=1), fmt="f %d/%d %d/%d %d/%d")
+    return out.getvalue()
+
+
+def test_obj_bytes_match_row_by_row_formatting(mesh, tmp_path):
+    rng = np.random.default_rng(3)
+    moved = mesh.x0 + rng.normal(scale=1e-3, size=mesh.x0.shape)    # full 17-digit values
+    moved[0] = [0.0, -0.0, 1e-300]
+    moved[1] = [-1.5, 123456.789, 5e-7]
+    text = write_obj(tmp_path / "m.obj", mesh, positions=moved).read_text()
+    assert text == _savetxt_obj(mesh, moved)
+    assert text.count("\nf ") == len(mesh.triangles)
+    assert text.endswith("\n")
+
+
 @pytest.fixture
 def run(monkeypatch, capsys):
     # only this subcommand: the test does not depend on the others being importable

@@ -111,3 +111,45 @@ def test_no_picture_is_recorded_without_a_warning(capsys):
     assert pictures.skipped(["drape.png"]) == {"drape.png": {"written": False, "reason": "--no-picture"}}
     pictures.warn_missing(pictures.skipped(["drape.png"]), "drape")
     assert capsys.readouterr().err == ""
+
+
+def _drape_picture_pixels(path, x, mesh, body):
+    """render_drape's picture as (H, W, 3) floats in 0..1 and, per view (front, side, back),
+    its cloth pixels (coloured) and skin pixels (grey, not white)."""
+    from matplotlib.image import imread
+    from seamfit.sim.render import render_drape
+    render_drape(path, x, mesh.triangles, mesh.triangle_panel, body.vertices if body else None,
+                 body.faces if body else None, title="test")
+    img = imread(path)[..., :3]
+    spread = img.max(axis=2) - img.min(axis=2)
+    cloth = spread > 0.15
+    skin = (spread < 0.05) & (img.mean(axis=2) < 0.9)
+    w = img.shape[1] // 3
+    return img, [(int(cloth[:, k * w:(k + 1) * w].sum()), int(skin[:, k * w:(k + 1) * w].sum()))
+                 for k in range(3)]
+
+
+def test_drape_picture_shows_the_garment_over_the_body(tmp_path):
+    """The views show cloth and skin; cloth moved in front of the body covers it in
+    the front view and is hidden behind it in the back view (painter's order)."""
+    from seamfit.body import load_body
+    from seamfit.mesh import build_sewn_mesh
+    from seamfit.pattern import load_pattern
+    mesh = build_sewn_mesh(load_pattern(PENCIL), 3.0)
+    body = load_body(B1)
+    img, views = _drape_picture_pixels(tmp_path / "drape.png", mesh.x0, mesh, body)
+    assert img.shape == (572, 1210, 3)                        # 11 x 5.2 in at 110 dpi
+    assert (tmp_path / "drape.png").stat().st_size > 10_000
+    front, side, back = views
+    assert front[0] > 5_000 and back[0] > 5_000               # the start's flat panels: edge-on from the side
+    assert min(skin for _, skin in views) > 5_000
+
+    ahead = mesh.x0 + [0.0, -0.3, 0.0]                        # 30 cm toward the front view
+    _, (front_a, side_a, back_a) = _drape_picture_pixels(tmp_path / "ahead.png", ahead, mesh, body)
+    assert front_a[0] >= 0.95 * front[0]                      # all of the skirt still shows
+    assert front_a[1] < front[1]                              # ... and covers more of the body
+    assert back_a[0] < 0.5 * back[0]                          # the body hides most of it from behind
+
+    _, alone = _drape_picture_pixels(tmp_path / "alone.png", mesh.x0, mesh, None)
+    assert max(v[1] for v in alone) < 1_000                   # no body: only the titles' grey edges
+    assert alone[0][0] > 5_000 and alone[2][0] > 5_000

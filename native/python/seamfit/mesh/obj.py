@@ -43,13 +43,21 @@ def write_obj(path: str | Path, mesh, positions: np.ndarray | None = None) -> Pa
         out.write(f"# pattern {mesh.source_file}\n")
     out.write(f"# edge length {mesh.edge_length_cm:g} cm, {mesh.n_vertices} vertices, "
               f"{len(mesh.triangles)} triangles, {len(mesh.sewing_pairs)} sewing pairs\n")
-    np.savetxt(out, x, fmt="v %.17g %.17g %.17g")
-    np.savetxt(out, mesh.uv_cm, fmt="vt %.17g %.17g")
+    out.write(_lines("v %.17g %.17g %.17g\n", np.asarray(x, dtype=float)))
+    out.write(_lines("vt %.17g %.17g\n", np.asarray(mesh.uv_cm, dtype=float)))
     for k, name in enumerate(mesh.panel_names):
         out.write(f"g {_safe_name(name)}\n")
         tri = mesh.triangles[mesh.triangle_panel == k].astype(np.int64) + 1
-        np.savetxt(out, np.repeat(tri, 2, axis=1), fmt="f %d/%d %d/%d %d/%d")
+        out.write(_lines("f %d/%d %d/%d %d/%d\n", np.repeat(tri, 2, axis=1)))
     return atomic_write_text(Path(path), out.getvalue())
+
+
+def _lines(line_fmt: str, rows: np.ndarray) -> str:
+    """``line_fmt`` filled with each row of ``rows`` in turn: the text np.savetxt writes
+    (the same %-formatting of the same numbers), formatted in one call instead of a Python
+    loop over the rows (0.2 s of a 60K-triangle mesh's file)."""
+    values = rows.ravel().tolist()
+    return (line_fmt * len(rows)) % tuple(values) if values else ""
 
 
 def _safe_name(name: str) -> str:

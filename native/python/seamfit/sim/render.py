@@ -1,9 +1,10 @@
 """A simple orthographic picture of a drape: front, side and back views of the
-garment (flat-shaded, one colour per panel) over the body, drawn with matplotlib
-polygons sorted back to front (painter's algorithm). Enough for a README or a
-report; not a renderer."""
+garment (flat-shaded, one colour per panel) over the body, triangles sorted back to
+front (painter's algorithm) and handed to matplotlib's Agg rasterizer in one call.
+Enough for a README or a report; not a renderer."""
 from __future__ import annotations
 
+import functools
 import io
 from pathlib import Path
 
@@ -31,8 +32,37 @@ def _shade(tri_pts: np.ndarray, toward: np.ndarray, base: np.ndarray) -> np.ndar
     return np.clip(base * (0.35 + 0.65 * lam[:, None]), 0, 1)
 
 
+def _flat_triangles(verts: np.ndarray, colours: np.ndarray):
+    """An artist that fills triangles (N, 3, 2 in data coordinates), each with one RGB
+    colour, in the given order. Agg draws them all in one C call (its Gouraud triangles
+    with the three corners alike); a PolyCollection made a Path object per triangle and
+    drew them one by one, which took most of a 60K-triangle picture's time."""
+    rgba = np.concatenate([np.asarray(colours, float), np.ones((len(colours), 1))], axis=1)
+    return _flat_triangles_class()(np.ascontiguousarray(verts, dtype=float),
+                                   np.ascontiguousarray(np.repeat(rgba[:, None, :], 3, axis=1)))
+
+
+@functools.cache
+def _flat_triangles_class():
+    from matplotlib.artist import Artist
+
+    class FlatTriangles(Artist):
+        def __init__(self, verts, colours):
+            super().__init__()
+            self._verts, self._colours = verts, colours
+
+        def draw(self, renderer):
+            if not self.get_visible() or not len(self._verts):
+                return
+            gc = renderer.new_gc()
+            self._set_gc_clip(gc)
+            renderer.draw_gouraud_triangles(gc, self._verts, self._colours, self.axes.transData.frozen())
+            gc.restore()
+
+    return FlatTriangles
+
+
 def _draw_view(ax, x, tris, panel, bv, bf, right, toward):
-    from matplotlib.collections import PolyCollection
     cloth_col = _PANEL_COLOURS[panel % len(_PANEL_COLOURS)]
     pts = x[tris]
     polys = [np.stack([pts @ right, pts[:, :, 2]], axis=-1)]
@@ -48,10 +78,7 @@ def _draw_view(ax, x, tris, panel, bv, bf, right, toward):
     P = np.concatenate(polys)
     C = np.concatenate(cols)
     order = np.argsort(np.concatenate(depth))  # far first
-    # autolim off: the limits are set just below, and measuring tens of thousands of
-    # polygons' extents for autoscaling took a quarter of the drawing.
-    ax.add_collection(PolyCollection(P[order], facecolors=C[order], edgecolors="none", antialiased=False),
-                      autolim=False)
+    ax.add_artist(_flat_triangles(P[order], C[order]))   # the limits are set just below
     h, v = P[..., 0].ravel(), P[..., 1].ravel()
     cx, cz = 0.5 * (h.min() + h.max()), 0.5 * (v.min() + v.max())
     half = 0.55 * max(h.max() - h.min(), v.max() - v.min())

@@ -221,6 +221,35 @@ def test_a_top_s_girth_under_the_arms_is_the_torso_s_not_the_hull_around_its_sle
     assert g2 == pytest.approx(torso_g, rel=1e-9) and h02 == pytest.approx(h0, rel=1e-9)
 
 
+def test_at_the_crotch_a_sliver_round_the_axis_is_no_torso():
+    # Where the legs part, the loop round the body's axis can be a sliver between them; the
+    # cloth nearest it once made a 5 cm "girth" and a trouser's crotch level a stretch of 4.6.
+    from seamfit.body import load_body
+    from seamfit.body.measure import _Slicer, body_measurements
+    from seamfit.opt.fit import torso_cloth
+    from seamfit.opt.level_scale import _enclosed_growth, _hull, _hull_perimeter
+    body = load_body(SAMPLES / "bodies/women_size06.obj")
+    crotch = body_measurements(body)["levels_z_m"]["crotch"]
+    s = _Slicer(body)
+    sliver = None
+    for z in np.arange(crotch - 0.01, crotch + 0.01, 0.0005):
+        ids = s.torso_ids(z)
+        others = [i for i in s.loop_ids(z) if not np.isin(i, ids).any()]
+        pts = s.cut(z)[3]
+        if len(ids) >= 3 and others and max(_hull_perimeter(_hull(pts[i])) for i in others
+                                            if len(i) >= 3) > _hull_perimeter(_hull(pts[ids])):
+            sliver = z
+            break
+    assert sliver is not None, "the sample body has a sliver at its crotch"
+    pts = s.cut(sliver)[3]
+    # one section round both legs, and the crotch seam's cloth against the sliver
+    trousers_top = np.vstack([_ring_around(pts, 0.01), _ring_around(pts[s.torso_ids(sliver)], 0.003)])
+    assert torso_cloth(s, sliver, pts, trousers_top) is None
+    g, h0, h1 = _enclosed_growth(s, body.vertices, sliver, trousers_top)
+    assert g == pytest.approx(_hull_perimeter(_hull(trousers_top)), rel=1e-9)
+    assert h0 > 0.5 * g and h1 == pytest.approx(h0, rel=1e-12)
+
+
 def _longer_waist_to_hip(body, dz: float):
     """The body with dz more between its seat and its natural waist: every vertex above the
     seat moves up, by dz from the waist up; nothing grows around."""

@@ -51,6 +51,12 @@ def torso_cloth(slicer: _Slicer, z: float, body_pts: np.ndarray, garment_pts: np
     ids = slicer.torso_ids(z)
     if not 3 <= len(ids) < len(body_pts):
         return None
+    # The torso is the section's largest piece (arms are smaller); at the crotch the loop
+    # round the axis can be a sliver between the legs, and the cloth nearest it no girth.
+    torso_girth = _hull_perimeter(body_pts[ids])
+    if any(_hull_perimeter(body_pts[other]) > torso_girth
+           for other in slicer.loop_ids(z) if not np.isin(other, ids).any()):
+        return None
     on_torso = np.zeros(len(body_pts), dtype=bool)
     on_torso[ids] = True
     _, nearest = cKDTree(body_pts).query(garment_pts)

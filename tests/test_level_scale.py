@@ -88,6 +88,58 @@ def _with_belly(body, depth_m: float):
     return replace(body, vertices=v)
 
 
+def _grown_between(body, k: float, z_full: float, z_none: float):
+    """The body widened about its vertical axis by k at z_full, by 1 at z_none, linearly
+    between, and as at the nearer of the two beyond them; heights unchanged."""
+    v = np.array(body.vertices, dtype=float)
+    c = 0.5 * (v[:, :2].min(axis=0) + v[:, :2].max(axis=0))
+    s = 1.0 + (k - 1.0) * np.clip((z_none - v[:, 2]) / (z_none - z_full), 0.0, 1.0)
+    v[:, :2] = c + s[:, None] * (v[:, :2] - c)
+    return replace(body, vertices=v)
+
+
+def _dart_rows(mesh, xbar, p, profile):
+    """Per dart of the level-scaled pattern p: (its intake's stretch, the stretch of the
+    panel's row at its open end, sx at its open end, sx at its tip, the stretch the rule
+    gives its intake: sx_tip + (sx_tip - sx_open) C / I)."""
+    from seamfit.opt.level_scale import DART_ROW_M, _darts
+    uv = 0.01 * np.asarray(mesh.uv_cm, dtype=float)
+    vp = np.asarray(mesh.vertex_panel)
+    darts = _darts(mesh, xbar)
+    out = []
+    for d in darts:
+        a, b = d["legs"]
+        pv = np.flatnonzero(vp == d["panel"])
+        row = pv[np.abs((uv[pv] - d["mid"]) @ d["along"]) < DART_ROW_M]
+        width = np.ptp(uv[row] @ d["across"])
+        intake = sum(e["intake"] for e in darts if e["panel"] == d["panel"]
+                     and abs((e["mid"] - d["mid"]) @ d["along"]) < DART_ROW_M)
+        grown = abs((p[a[-1]] - p[b[-1]]) @ d["across"]) / d["intake"]
+        sx_open, sx_tip = np.interp([d["z_open"], d["z_tip"]], profile["z"], profile["sx"])
+        rule = sx_tip + (sx_tip - sx_open) * (width - intake) / intake
+        out.append((grown, np.ptp(p[row] @ d["across"]) / width, sx_open, sx_tip, rule))
+    return out
+
+
+def test_a_dart_takes_up_what_the_girth_at_its_tip_grew_beyond_its_open_end(skirt):
+    # Hips wider, waist as it was: the side seams keep their shape (the row at the darts'
+    # open ends grows as the hip's did) and the darts take up the difference.
+    from seamfit.body.measure import body_measurements
+    from seamfit.opt.level_scale import level_scaled_pattern
+    mesh, xbar, body, sdf = skirt
+    lv = body_measurements(body)["levels_z_m"]
+    for full, none, widens in ((lv["hip"], lv["waist"], True), (lv["waist"], lv["hip"], False)):
+        p, info = level_scaled_pattern(mesh, xbar, body, _grown_between(body, 1.08, full, none),
+                                       sdf, return_info=True)
+        rows = _dart_rows(mesh, xbar, p, info["profile"])
+        assert len(rows) == 6                       # 2 front, 4 back darts
+        for grown, row_stretch, sx_open, sx_tip, rule in rows:
+            assert abs(sx_tip - sx_open) > 0.03
+            assert abs(row_stretch - sx_tip) < 0.2 * abs(sx_tip - sx_open)
+            assert (grown > 1.1) if widens else (grown < 0.97)
+            assert grown == pytest.approx(rule, abs=0.05)
+
+
 def test_a_taller_body_maps_every_level_up_in_proportion():
     from seamfit.body import load_body
     from seamfit.opt.level_scale import level_map

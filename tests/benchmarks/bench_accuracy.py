@@ -31,6 +31,7 @@ import argparse
 import json
 import os
 import platform
+import queue
 import shlex
 import subprocess
 import sys
@@ -76,8 +77,9 @@ def grade_kwargs(args, garment: str) -> dict:
     kw = {"preset": args.preset if args.preset != "auto" else preset_for(garment)}
     for opt, field in (("edge_length", "edge_length_cm"), ("sdf_spacing", "sdf_spacing"),
                        ("max_iterations", "max_outer_iterations"), ("checkpoint_every", "checkpoint_every"),
-                       ("inner_iterations", "inner_iterations"), ("time_budget", "time_budget_s")):
-        v = getattr(args, opt)
+                       ("inner_iterations", "inner_iterations"), ("time_budget", "time_budget_s"),
+                       ("device", "device")):
+        v = getattr(args, opt, None)
         if v is not None:
             kw[field] = v
     if getattr(args, "start", None) is not None:
@@ -97,8 +99,9 @@ def case_dir(out: Path, garment: str, body: str) -> Path:
     return out / "cases" / garment / body
 
 
-def run_one(spec: dict, out: Path, threads: int, timeout: float | None) -> dict:
-    """Run one case in a child process; a crash or timeout becomes that case's error."""
+def run_one(spec: dict, out: Path, threads: int, timeout: float | None, gpu: int | None = None) -> dict:
+    """Run one case in a child process (on GPU ``gpu`` of the host, if given); a crash or
+    timeout becomes that case's error."""
     from seamfit.fileio import atomic_write_text
     d = case_dir(out, spec["garment"], spec["body"])
     d.mkdir(parents=True, exist_ok=True)
@@ -106,6 +109,8 @@ def run_one(spec: dict, out: Path, threads: int, timeout: float | None) -> dict:
     atomic_write_text(spec_path, json.dumps(spec, indent=1) + "\n")
     result_path.unlink(missing_ok=True)
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
+    if gpu is not None:
+        env["CUDA_VISIBLE_DEVICES"] = str(gpu)
     cmd = [sys.executable, str(Path(__file__).resolve()), "case", str(spec_path), str(result_path)]
     t0 = time.perf_counter()
     with open(d / "log.txt", "w") as log:
@@ -193,9 +198,23 @@ def cmd_run(args) -> int:
         meta["finished"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
         atomic_write_text(out / "results.json", json.dumps({"meta": meta, "cases": rows}, indent=1) + "\n")
 
+    # Each of the ``jobs`` slots keeps one GPU (slot k uses GPU k mod gpus).
+    slots: queue.Queue = queue.Queue()
+    for k in range(jobs):
+        slots.put(k)
+
+    def run_in_slot(s):
+        k = slots.get()
+        try:
+            return run_one(s, out, threads, args.case_timeout, k % args.gpus if args.gpus > 1 else None)
+        finally:
+            slots.put(k)
+
+    if args.gpus > 1:
+        meta["gpus"] = args.gpus
     t0 = time.perf_counter()
     with ThreadPoolExecutor(max_workers=jobs) as pool:
-        futs = {pool.submit(run_one, s, out, threads, args.case_timeout): s for s in todo}
+        futs = {pool.submit(run_in_slot, s): s for s in todo}
         for fut in as_completed(futs):
             s = futs[fut]
             res = fut.result()
@@ -247,6 +266,8 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--start", default=None, help="theta^(0) and anchor: base | level (default: GradeSettings)")
     r.add_argument("--strength", action="append", default=[], metavar="NAME=DELTA",
                    help="override one strength of the preset (repeatable), e.g. --strength pos=0")
+    r.add_argument("--device", default=None, help="cpu | cuda | auto (default: GradeSettings)")
+    r.add_argument("--gpus", type=int, default=1, help="spread the cases over this many GPUs of the host")
     r.add_argument("--time-budget", type=float, default=None, help="seconds per grading (default none)")
     r.add_argument("--case-timeout", type=float, default=None, help="kill a case after this many seconds")
     r.add_argument("--no-baseline-ease", action="store_true", help="skip draping the two baselines")

@@ -53,6 +53,11 @@ SUPPORT_FRACTION = 0.5
 CLOSED_FRACTION = 0.9
 # An opening runs around the body (waist, hem) when it climbs less than this per length.
 OPENING_SLOPE = 0.5
+# A dart's open end lies on the panel's row of vertices this close to it along the dart (m).
+DART_ROW_M = 0.015
+# A dart's wedge stretches across by at least a fifth (its legs never meet: the outline
+# stays simple) and at most five times.
+DART_STRETCH = (0.2, 5.0)
 
 
 def base_levels(base_body) -> dict:
@@ -345,10 +350,10 @@ def _stretch_targets(mesh, xbar, profile, zmap, sleeves=None):
     return S, E2
 
 
-def _solve_gradients(mesh, S, E2) -> np.ndarray:
+def _solve_gradients(mesh, S, E2, tri=None) -> np.ndarray:
     """The pattern (N, 2) m whose per-triangle gradient best matches S (area-weighted
     least squares), each panel keeping its centroid."""
-    tri = np.asarray(mesh.triangles)
+    tri = np.asarray(mesh.triangles) if tri is None else tri
     p = 0.01 * np.asarray(mesh.uv_cm, dtype=float)
     n, T = len(p), len(tri)
     area = 0.5 * np.abs(np.linalg.det(E2))
@@ -374,6 +379,88 @@ def _solve_gradients(mesh, S, E2) -> np.ndarray:
     return out
 
 
+def _darts(mesh, xbar) -> list[dict]:
+    """The mesh's vertical darts: a stitch of one panel to itself whose pairs run from one
+    tip (a vertex paired with itself) to the open end, and whose open end lies above or
+    below its tip on the base drape (a waist dart; a bust dart from the side seam runs
+    across the body and is left out). Per dart: tip, the two legs' vertices from the tip
+    out, the across and along directions in the pattern, the intake at the open end (m)
+    and the heights of the open end and the tip."""
+    uv = 0.01 * np.asarray(mesh.uv_cm, dtype=float)
+    vp = np.asarray(mesh.vertex_panel)
+    out = []
+    for k, st in enumerate(mesh.stitches):
+        if st.panel_a != st.panel_b:
+            continue
+        pr = np.asarray(mesh.stitch_pairs[k])
+        if len(pr) < 2:
+            continue
+        if pr[-1, 0] == pr[-1, 1]:
+            pr = pr[::-1]
+        if pr[0, 0] != pr[0, 1] or np.any(pr[1:, 0] == pr[1:, 1]):
+            continue
+        tip, a, b = int(pr[0, 0]), pr[1:, 0], pr[1:, 1]
+        z_open = 0.5 * (xbar[a[-1], 2] + xbar[b[-1], 2])
+        reach = 0.5 * (xbar[a[-1]] + xbar[b[-1]]) - xbar[tip]
+        if abs(reach[2]) < np.linalg.norm(reach[:2]):
+            continue
+        mid = 0.5 * (uv[a[-1]] + uv[b[-1]])
+        axis = mid - uv[tip]
+        if np.linalg.norm(axis) <= 0:
+            continue
+        along = axis / np.linalg.norm(axis)
+        across = np.array([-along[1], along[0]])
+        out.append({"tip": tip, "legs": (a, b), "along": along, "across": across, "mid": mid,
+                    "intake": abs(float((uv[a[-1]] - uv[b[-1]]) @ across)),
+                    "z_open": float(z_open), "z_tip": float(xbar[tip, 2]), "panel": int(vp[tip])})
+    return out
+
+
+def _dart_wedges(mesh, xbar, profile, S):
+    """Triangles filling each vertical dart's wedge in the pattern, (k, 3) vertex ids, and
+    their target gradients (k, 2, 2). A dart takes up what the girth at its tip grew beyond
+    the girth at its open end, as drafts do: the panel's row at the open end grows as the
+    row at the tip did (its side seams keep their shape) while its cloth there grows by the
+    open end's own stretch, so across the dart the wedge stretches by
+    s_d = sx_tip + (sx_tip - sx_open) C / I, C the row's cloth and I its darts' intake."""
+    none = np.zeros((0, 3), np.int64), np.zeros((0, 2, 2))
+    darts = _darts(mesh, xbar)
+    if not darts:
+        return none
+    uv = 0.01 * np.asarray(mesh.uv_cm, dtype=float)
+    vp = np.asarray(mesh.vertex_panel)
+    tri_all = np.asarray(mesh.triangles)
+    tris, targets = [], []
+    for d in darts:
+        # The panel's row through the open end: its width across the dart, less the
+        # intake of every dart that opens on it, is the cloth there.
+        pv = np.flatnonzero(vp == d["panel"])
+        row = pv[np.abs((uv[pv] - d["mid"]) @ d["along"]) < DART_ROW_M]
+        on_row = [e["intake"] for e in darts if e["panel"] == d["panel"]
+                  and abs((e["mid"] - d["mid"]) @ d["along"]) < DART_ROW_M]
+        intake = sum(on_row)
+        cloth = (float(np.ptp(uv[row] @ d["across"])) if len(row) >= 2 else 0.0) - intake
+        if cloth <= 0 or intake <= 0:
+            continue
+        sx_open, sx_tip = np.interp([d["z_open"], d["z_tip"]], profile["z"], profile["sx"])
+        s_d = float(np.clip(sx_tip + (sx_tip - sx_open) * cloth / intake, *DART_STRETCH))
+        # Along the dart it stretches as the cloth beside it.
+        a, b = d["legs"]
+        beside = np.isin(tri_all, np.concatenate([a, b])).any(axis=1)
+        e = d["along"]
+        sy = float(np.mean(np.einsum("i,tij,j->t", e, S[beside], e))) if beside.any() else 1.0
+        target = np.eye(2) + (s_d - 1.0) * np.outer(d["across"], d["across"]) + (sy - 1.0) * np.outer(e, e)
+        chain = list(zip(a.tolist(), b.tolist()))
+        wedge = [(d["tip"], *chain[0])]
+        for (a0, b0), (a1, b1) in zip(chain[:-1], chain[1:]):
+            wedge += [(a0, a1, b1), (a0, b1, b0)]
+        tris += wedge
+        targets += [target] * len(wedge)
+    if not tris:
+        return none
+    return np.asarray(tris, np.int64), np.asarray(targets)
+
+
 def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return_info: bool = False):
     """p-hat (N, 2) m: the base pattern stretched level by level (module docstring)."""
     xbar = np.asarray(xbar, dtype=float)
@@ -387,7 +474,14 @@ def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return
         # waist-to-hip: its seat line moves with that length, not with the stature.
         zmap = with_seat_line(zmap, base_body, target_body)
     S, E2 = _stretch_targets(mesh, xbar, prof, zmap, sleeves)
-    p = _solve_gradients(mesh, S, E2)
+    # Each dart's wedge joins the fit as triangles of its own, so its intake follows the
+    # girths at its tip and its open end (_dart_wedges).
+    wt, wS = _dart_wedges(mesh, xbar, prof, S)
+    P = 0.01 * np.asarray(mesh.uv_cm, dtype=float)[wt]
+    wE2 = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)
+    ok = np.abs(np.linalg.det(wE2)) > 1e-12 if len(wt) else np.zeros(0, dtype=bool)
+    p = _solve_gradients(mesh, np.concatenate([S, wS[ok]]), np.concatenate([E2, wE2[ok]]),
+                         np.concatenate([np.asarray(mesh.triangles), wt[ok]]))
     if return_info:
         tri_panel = np.asarray(mesh.vertex_panel)[np.asarray(mesh.triangles)[:, 0]]
         sleeve_panels = [mesh.panel_names[k] for k in np.unique(tri_panel[sleeves[0]])]

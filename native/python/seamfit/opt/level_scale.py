@@ -21,7 +21,10 @@ levels it is interpolated, and where the garment hangs free (a skirt below the s
 flare below the waist) it is the growth of the level it hangs from. A level that cuts an
 opening's edge (a waistline rising to the side seams, a dipping hem) and finds less cloth
 than its tape is part of a section, no girth: it stretches as the nearest level that is
-one. Sleeves are measured around the arm instead (seamfit.opt.sleeves). The pattern whose
+one. Sleeves are measured around the arm instead (seamfit.opt.sleeves). A waist dart takes
+up what the girth at its tip grew beyond the girth at its open end: its wedge joins the fit
+with the across-stretch that lets the panel's row at the open end grow as the tip's row did
+(_dart_wedges). The pattern whose
 triangle gradients best match those stretches (a
 sparse least-squares solve per panel, the same kind of solve as a Poisson problem) is the
 level-scaled pattern. Equal bodies give the base pattern back exactly.

@@ -4,8 +4,20 @@
 #   --blender   also one virtual environment per supported Blender line with the bpy
 #               module (.venv-blender-<version>), for the extension's tests
 #               (SEAMFIT_BPY_VERSIONS overrides the versions).
+#   --cp313     also a Python 3.13 environment in .venv-cp313 (from PYTHON313, default
+#               python3.13) with what scripts/build_addon.sh --cp313 needs to build the
+#               extension's wheels for Blender 5.1 and later.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+with_blender=0; with_cp313=0
+for arg in "$@"; do
+  case "$arg" in
+    --blender) with_blender=1 ;;
+    --cp313) with_cp313=1 ;;
+    *) echo "setup: unknown option $arg (known: --blender, --cp313)" >&2; exit 2 ;;
+  esac
+done
 
 apt_pkgs=(build-essential python3-venv python3-dev libeigen3-dev
           libglu1-mesa libgl1 libxrender1 libxcursor1 libxft2 libxinerama1
@@ -33,7 +45,7 @@ python=${PYTHON:-python3}
 .venv/bin/python -m pip install -q --no-build-isolation .
 .venv/bin/python -c "import seamfit._core as c; print('seamfit built; CUDA backend:', c.built_with_cuda)"
 
-if [ "${1:-}" = "--blender" ]; then
+if [ $with_blender = 1 ]; then
   # Blender 4.2 LTS, 4.5 LTS and 5.0 all run Python 3.11; bpy 4.2 does not pin numpy, the
   # others pin numpy<2, which is what Blender ships.
   for v in ${SEAMFIT_BPY_VERSIONS:-4.2.23 4.5.15 5.0.1}; do
@@ -45,4 +57,16 @@ if [ "${1:-}" = "--blender" ]; then
       "$venv/bin/python" -m pip install -q "bpy==$v" "numpy<2" pytest
     fi
   done
+fi
+
+if [ $with_cp313 = 1 ]; then
+  py313=${PYTHON313:-python3.13}
+  command -v "$py313" >/dev/null 2>&1 || [ -x "$py313" ] || {
+    echo "setup: --cp313 needs a Python 3.13 ($py313 not found; set PYTHON313)" >&2; exit 1; }
+  "$py313" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 13))' 2>/dev/null || {
+    echo "setup: --cp313: $py313 does not run Python 3.13 (set PYTHON313)" >&2; exit 1; }
+  [ -x .venv-cp313/bin/python ] || "$py313" -m venv .venv-cp313
+  .venv-cp313/bin/python -m pip install -q --upgrade pip
+  .venv-cp313/bin/python -m pip install -q pybind11 scikit-build-core cmake ninja numpy
+  echo "seamfit setup: .venv-cp313 ready for scripts/build_addon.sh --cp313" >&2
 fi

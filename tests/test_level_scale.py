@@ -222,6 +222,36 @@ def test_the_skirt_section_below_the_crotch_is_one_piece(skirt):
     assert section_loops(mesh, xbar, 0.5 * (crotch + xbar[:, 2].min())) == 1
 
 
+def test_a_level_cut_through_the_triangles_that_straddle_it_is_the_whole_mesh_cut(skirt):
+    # girth_profile cuts each level through the triangles that straddle it only: the same
+    # points in the same order, the same cloth length and the same pieces, to the bit.
+    from seamfit.opt.fit import mesh_cross_section
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from seamfit.opt.level_scale import _pieces, cloth_length, section_loops
+    mesh, xbar, body, sdf = skirt
+    tri = np.asarray(mesh.triangles)
+    tz = xbar[tri, 2]
+    pairs = np.asarray(mesh.sewing_pairs, dtype=np.int64).reshape(-1, 2)
+    # levels between the vertices and at their very heights
+    zs = np.concatenate([np.linspace(tz.min() - 0.01, tz.max() + 0.01, 41), xbar[::37, 2]])
+    for z in zs:
+        at = tri[(tz.min(axis=1) < z) & (tz.max(axis=1) > z)]
+        assert mesh_cross_section(xbar, at, z).tobytes() == mesh_cross_section(xbar, tri, z).tobytes()
+        assert cloth_length(xbar, at, z) == cloth_length(xbar, tri, z)
+        # the pieces as counted over a graph of every vertex of the mesh
+        cut = tri[(tz.min(axis=1) < z) & (tz.max(axis=1) > z)]
+        whole = 0
+        if len(cut):
+            used = np.zeros(len(xbar), dtype=bool)
+            used[cut.ravel()] = True
+            e = np.vstack([cut[:, [0, 1]], cut[:, [1, 2]], pairs[used[pairs[:, 0]] & used[pairs[:, 1]]]])
+            g = coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(len(xbar), len(xbar)))
+            whole = len(np.unique(connected_components(g, directed=False)[1][used]))
+        assert _pieces(at, pairs, len(xbar)) == section_loops(mesh, xbar, z) == whole
+
+
 def test_the_height_map_goes_on_beyond_the_soles_with_its_end_slope():
     # A floor-length garment hangs below the soles: clamping the map there would give its
     # hem no vertical stretch at all.

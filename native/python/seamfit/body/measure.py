@@ -62,6 +62,7 @@ class _Slicer:
         self.zmin, self.zmax = z.min(axis=1), z.max(axis=1)
         order = np.argsort(self.zmin)
         self.order, self.sorted_zmin = order, self.zmin[order]
+        self.sorted_zmax = self.zmax[order]
         self.z0, self.z1 = float(self.V[:, 2].min()), float(self.V[:, 2].max())
         self.H = self.z1 - self.z0
         band = (self.V[:, 2] > self.z0 + 0.45 * self.H) & (self.V[:, 2] < self.z0 + 0.75 * self.H)
@@ -86,8 +87,7 @@ class _Slicer:
         if key in self._cache:
             return self._cache[key]
         n = np.searchsorted(self.sorted_zmin, z, side="right")
-        cand = self.order[:n]
-        cand = cand[self.zmax[cand] > z]
+        cand = self.order[:n][self.sorted_zmax[:n] > z]
         if cand.size == 0:
             self._cache[key] = []
             return []

@@ -154,16 +154,23 @@ def section_loops(mesh, x, z: float) -> int:
     tri = np.asarray(mesh.triangles)
     zt = np.asarray(x, dtype=float)[tri, 2] - z
     cut = tri[(zt.min(axis=1) < 0) & (zt.max(axis=1) > 0)]
+    return _pieces(cut, np.asarray(mesh.sewing_pairs, dtype=np.int64).reshape(-1, 2), len(x))
+
+
+def _pieces(cut, pairs, n: int) -> int:
+    """How many pieces the triangles ``cut`` (of a mesh of n vertices) and the stitches
+    ``pairs`` between their vertices make: section_loops once the cut triangles are known.
+    Only the cut triangles' vertices enter the graph."""
     if len(cut) == 0:
         return 0
-    pairs = np.asarray(mesh.sewing_pairs, dtype=np.int64).reshape(-1, 2)
-    used = np.zeros(len(x), dtype=bool)
+    used = np.zeros(n, dtype=bool)
     used[cut.ravel()] = True
     pairs = pairs[used[pairs[:, 0]] & used[pairs[:, 1]]]
-    edges = np.vstack([cut[:, [0, 1]], cut[:, [1, 2]], pairs])
-    g = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(len(x), len(x)))
-    _, label = connected_components(g, directed=False)
-    return len(np.unique(label[used]))
+    node = np.cumsum(used) - 1                  # the used vertices, numbered in order
+    edges = node[np.vstack([cut[:, [0, 1]], cut[:, [1, 2]], pairs])]
+    m = int(node[-1]) + 1
+    g = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(m, m))
+    return int(connected_components(g, directed=False)[0])
 
 
 def openings(mesh, x) -> np.ndarray:
@@ -274,10 +281,16 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
     dH = np.full(len(zs), np.nan)
     around = openings(mesh, xbar)
     around = around[own[around[:, 0]] & own[around[:, 1]]] if len(around) else around
+    # Each level's section comes from the triangles that straddle it (lowest vertex below
+    # z, highest above), taken in mesh order: the same points in the same order as from
+    # all triangles, without going over the whole mesh three times a level.
+    tz = xbar[tri, 2]
+    tlo, thi = tz.min(axis=1), tz.max(axis=1)
     for k, z in enumerate(zs):
-        g0, h0, h1 = _enclosed_growth(s0, tv, z, mesh_cross_section(xbar, tri, z))
+        at = tri[(tlo < z) & (thi > z)]
+        g0, h0, h1 = _enclosed_growth(s0, tv, z, mesh_cross_section(xbar, at, z))
         if (np.isfinite(g0) and _crosses(xbar, around, z)
-                and cloth_length(xbar, tri, z) < CLOSED_FRACTION * g0):
+                and cloth_length(xbar, at, z) < CLOSED_FRACTION * g0):
             continue                    # part of a section: no girth (CLOSED_FRACTION)
         G[k] = g0
         # The body sets a level's girth where most of the garment's section rests on it;
@@ -292,8 +305,13 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
     k_hip = int(np.argmin(np.abs(zs - hip_z)))
     hip_supported = bool(np.isfinite(dH[k_hip]))
     if hip_supported:
+        # section_loops at each level below the hip, over the whole mesh (sleeves too)
+        all_tri = np.asarray(mesh.triangles)
+        az = xbar[all_tri, 2]
+        alo, ahi = az.min(axis=1), az.max(axis=1)
+        pairs = np.asarray(mesh.sewing_pairs, dtype=np.int64).reshape(-1, 2)
         for k in range(k_hip):
-            if section_loops(mesh, xbar, zs[k]) == 1:
+            if _pieces(all_tri[(alo < zs[k]) & (ahi > zs[k])], pairs, len(xbar)) == 1:
                 dH[k] = dH[k_hip]
     known = np.flatnonzero(np.isfinite(dH))
     if len(known) == 0:

@@ -267,7 +267,10 @@ def provenance(res: dict) -> list[str]:
         out.append(f"* `{m['file']}`: {'**subset** of the cases' if m.get('subset') else 'all cases'}, "
                    f"methods {', '.join(m.get('methods', []))}; machine {mc.get('cpu', '?')}, {mc.get('cores', '?')} "
                    f"cores, Python {mc.get('python', '?')}; jobs {m.get('jobs')} x "
-                   f"{m.get('threads_per_job')} threads; commit {m.get('commit')}; started {m.get('started')}, "
+                   f"{m.get('threads_per_job')} threads; commit {m.get('commit')}"
+                   + (" (native/ modified)" if m.get("native_modified") else "")
+                   + (f", sources {m['source_digest']}" if m.get("source_digest") else "")
+                   + f"; started {m.get('started')}, "
                    f"wall {_f(m.get('wall_seconds'), 0)} s.")
         out.append(f"  Command: `{m.get('command')}`")
     gs = {json.dumps(c.get("grade_settings"), sort_keys=True) for c in res["cases"] if c.get("grade_settings")}

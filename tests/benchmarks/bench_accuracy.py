@@ -160,6 +160,29 @@ def git_commit() -> str | None:
         return None
 
 
+def source_digest() -> str:
+    """SHA-256 over the seamfit sources a grading runs (native/: Python, C++, CUDA), path and
+    bytes in path order: ties a result to its code where the checkout's commit cannot (a
+    copied tree, uncommitted changes)."""
+    import hashlib
+    h = hashlib.sha256()
+    for f in sorted((ROOT / "native").rglob("*")):
+        if f.is_file() and f.suffix in {".py", ".cpp", ".hpp", ".h", ".cu", ".cuh", ".txt"} \
+                and "__pycache__" not in f.parts:
+            h.update(str(f.relative_to(ROOT)).encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
+
+
+def git_dirty() -> bool | None:
+    """Whether the checkout's native/ differs from its commit (None: not a git checkout)."""
+    try:
+        r = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--", "native"],
+                           capture_output=True, text=True, timeout=20)
+        return bool(r.stdout.strip()) if r.returncode == 0 else None
+    except (OSError, subprocess.SubprocessError):
+        return None
+
+
 def cmd_run(args) -> int:
     from accuracy_report import console_table, load_results
     from seamfit.fileio import atomic_write_text
@@ -178,7 +201,8 @@ def cmd_run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     meta = {"command": " ".join(shlex.quote(a) for a in sys.argv), "data": str(data), "base": args.base,
             "methods": methods, "jobs": jobs, "threads_per_job": threads, "machine": machine(),
-            "commit": git_commit(), "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "commit": git_commit(), "native_modified": git_dirty(), "source_digest": source_digest(),
+            "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "subset": bool(args.garments or args.bodies), "baseline_ease": not args.no_baseline_ease}
     specs = [{"data": str(data), "garment": g, "body": b, "base": args.base, "methods": methods,
               "grade": grade_kwargs(args, g), "baseline_ease": not args.no_baseline_ease} for g, b in pairs]

@@ -303,6 +303,64 @@ def test_a_top_s_girth_under_the_arms_is_the_torso_s_not_the_hull_around_its_sle
     assert g2 == pytest.approx(torso_g, rel=1e-9) and h02 == pytest.approx(h0, rel=1e-9)
 
 
+def test_body_points_a_coarse_cloth_ring_cuts_off_still_count_as_under_it():
+    # A 3 cm mesh's flat triangles cut chords through a convex body part: the bust's most
+    # prominent points lie a millimetre or two outside the cloth's hull. They are the ones
+    # a fuller bust moves most; left out, the FreeSewing bodice's bust level grew 14.3 cm
+    # where the body's tape grew 16.4 cm.
+    from seamfit.body import load_body
+    from seamfit.body.measure import _Slicer, body_measurements
+    from seamfit.opt.level_scale import _enclosed_growth
+    body = load_body(SAMPLES / "bodies/women_size06.obj")
+    z = body_measurements(body)["levels_z_m"]["bust"]
+    s = _Slicer(body)
+    torso = s.cut(z)[3][s.torso_ids(z)]
+    coarse = _ring_around(torso, 0.001, n=16)      # cloth points 5-6 cm apart, 1 mm out
+    eq = _hull(coarse).equations
+    assert (torso @ eq[:, :2].T + eq[:, 2]).max() > 0.001   # the chords cut into the body
+    k = 1.1
+    g, h0, h1 = _enclosed_growth(s, _widened(body, k).vertices, z, coarse)
+    assert h0 == pytest.approx(s.girth(z), rel=1e-6)
+    assert h1 - h0 == pytest.approx((k - 1.0) * h0, rel=1e-6)
+
+
+def _hull(points):
+    from scipy.spatial import ConvexHull
+    return ConvexHull(points)
+
+
+def _shoulders_raised(body, dz: float, armpit_z: float, shoulder_z: float):
+    """The body with dz more between its armpit and its shoulders: every vertex above the
+    armpit moves up, by dz from shoulder_z up (the head as it was)."""
+    v = np.array(body.vertices, dtype=float)
+    v[:, 2] += dz * np.clip((v[:, 2] - armpit_z) / (shoulder_z - armpit_z), 0.0, 1.0)
+    return replace(body, vertices=v)
+
+
+def test_the_armhole_deepens_by_what_the_body_grew_between_armpit_and_shoulders():
+    # A fuller body at the same stature grows between the armpit and the shoulders, not in
+    # the head: the height map follows the shoulder line's landmarks, so that span takes
+    # all of the growth (drafts deepen the armhole by it) and the neck and head none.
+    from seamfit.body import load_body
+    from seamfit.body.shape_model import hm08_landmarks
+    from seamfit.opt.level_scale import SHOULDER_LINE, base_levels, level_map, map_height, with_shoulder_line
+    body = load_body(SAMPLES / "bodies/women_size06.obj")
+    lm = hm08_landmarks()
+    idx = np.concatenate([np.atleast_1d(lm[n]) for n in SHOULDER_LINE])
+    shoulder = float(body.vertices[idx, 2].mean())
+    armpit = float(base_levels(body)["armpit"])
+    dz = 0.02
+    target = _shoulders_raised(body, dz, armpit + 0.01, float(body.vertices[idx, 2].min()))
+    zmap = with_shoulder_line(level_map(body, target), body, target)
+    moved = map_height(np.array([armpit, shoulder, shoulder + 0.1]), *zmap) - [armpit, shoulder, shoulder + 0.1]
+    assert moved[0] == pytest.approx(0.0, abs=1e-3)
+    assert moved[1] == pytest.approx(dz, abs=1e-6)
+    assert moved[2] == pytest.approx(dz, abs=1e-3)     # above the shoulders: moved, not stretched
+    # without the knot, the armpit-to-crown segment spread the growth up into the head
+    plain = map_height(np.array([shoulder]), *level_map(body, target))[0] - shoulder
+    assert plain < 0.5 * dz
+
+
 def test_at_the_crotch_a_sliver_round_the_axis_is_no_torso():
     # Where the legs part, the loop round the body's axis can be a sliver between them; the
     # cloth nearest it once made a 5 cm "girth" and a trouser's crotch level a stretch of 4.6.
@@ -383,12 +441,13 @@ def test_a_body_of_another_mesh_keeps_the_height_map():
     # The seat line needs the landmark-based waist-to-hip, which only the MakeHuman
     # mesh's landmarks give; any other mesh keeps the map of its sections.
     from seamfit.body import load_body
-    from seamfit.opt.level_scale import level_map, with_seat_line
+    from seamfit.opt.level_scale import level_map, with_seat_line, with_shoulder_line
     body = load_body(SAMPLES / "bodies/women_size06.obj")
     other = replace(body, faces=np.asarray(body.faces)[::-1].copy())
     zmap = level_map(other, other)
     out = with_seat_line(zmap, other, other)
     assert out is zmap
+    assert with_shoulder_line(zmap, other, other) is zmap
 
 
 def test_a_level_through_the_waist_opening_stretches_as_the_waist_below_it(skirt):

@@ -13,8 +13,8 @@ a target stretch:
   change, not in proportion to it;
 * across that direction, by sy(z), the slope at z of the piecewise linear map that takes
   the base body's levels (soles, crotch, waist, armpit, crown) to where the same body
-  sections are on the target; a skirt the seat holds also has its seat line the target's
-  waist-to-hip below the target's waist.
+  sections are on the target, and the shoulder line to where its landmarks went; a skirt
+  the seat holds also has its seat line the target's waist-to-hip below the target's waist.
 
 dH is measured where most of the garment's girth rests on the body; between two such
 levels it is interpolated, and where the garment hangs free (a skirt below the seat, a
@@ -35,7 +35,6 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import spsolve
-from scipy.spatial import Delaunay
 
 from ..body.measure import _Slicer, body_measurements
 from .costs import sample_sdf
@@ -93,24 +92,54 @@ def level_map(base_body, target_body, *, crotch: bool = True, levels: dict | Non
     return _monotone(np.array(zb), np.array(zt))
 
 
+def _hm08_landmarks(*bodies):
+    """The MakeHuman (hm08) landmarks where every body is of that mesh, else None."""
+    from ..body.shape_model import hm08_faces, hm08_landmarks
+    faces = hm08_faces()
+    if not all(np.array_equal(np.asarray(b.faces), faces) for b in bodies):
+        return None
+    return hm08_landmarks()
+
+
+def _with_knot(zmap, kb: float, kt: float):
+    """The height map with one more knot, base height kb placed at kt on the target."""
+    zb, zt = zmap
+    order = np.argsort(np.append(zb, kb), kind="stable")
+    return _monotone(np.append(zb, kb)[order], np.append(zt, kt)[order])
+
+
 def with_seat_line(zmap, base_body, target_body):
     """The height map with a knot at the base body's seat line (its natural waist less its
     waist-to-hip), placed on the target at the target's natural waist (where the map takes
     the base's) less the target's own waist-to-hip. Both lengths are the landmark-based
     measurement of any body of the MakeHuman (hm08) mesh; other bodies keep the map as it is."""
-    from ..body.shape_model import hm08_faces, hm08_landmarks
-    faces = hm08_faces()
-    if not all(np.array_equal(np.asarray(b.faces), faces) for b in (base_body, target_body)):
+    lm = _hm08_landmarks(base_body, target_body)
+    if lm is None:
         return zmap
-    lm = hm08_landmarks()
     m0 = body_measurements(base_body, landmarks=lm)
     m1 = body_measurements(target_body, landmarks=lm)
-    zb, zt = zmap
     waist = float(m0["levels_z_m"]["waist"])
     kb = waist - 0.01 * float(m0["waist_to_hip"])
-    kt = float(map_height(np.array([waist]), zb, zt)[0]) - 0.01 * float(m1["waist_to_hip"])
-    order = np.argsort(np.append(zb, kb), kind="stable")
-    return _monotone(np.append(zb, kb)[order], np.append(zt, kt)[order])
+    kt = float(map_height(np.array([waist]), *zmap)[0]) - 0.01 * float(m1["waist_to_hip"])
+    return _with_knot(zmap, kb, kt)
+
+
+SHOULDER_LINE = ("neck_side_L", "neck_side_R", "shoulder_point_L", "shoulder_point_R")
+
+
+def with_shoulder_line(zmap, base_body, target_body):
+    """The height map with a knot at the shoulder line (the mean height of the landmarks at
+    both ends of both shoulder seams), placed where those vertices are on the target. The
+    head does not grow with the size, so between the armpit and the crown a fuller body's
+    growth is all below the shoulders: drafts deepen the armhole by it. Bodies of another
+    mesh than MakeHuman's (hm08) keep the map as it is."""
+    lm = _hm08_landmarks(base_body, target_body)
+    if lm is None:
+        return zmap
+    idx = np.concatenate([np.atleast_1d(lm[n]) for n in SHOULDER_LINE])
+    kb = float(np.asarray(base_body.vertices)[idx, 2].mean())
+    kt = float(np.asarray(target_body.vertices)[idx, 2].mean())
+    return _with_knot(zmap, kb, kt)
 
 
 def _monotone(zb, zt):
@@ -247,7 +276,10 @@ def _enclosed_growth(slicer: _Slicer, target_v: np.ndarray, z: float, garment_pt
     g = _hull_perimeter(hg)
     if len(pts) < 3:
         return g, np.nan, np.nan
-    inside = Delaunay(garment_pts[hg.vertices]).find_simplex(pts) >= 0
+    # A body point up to contact distance outside the cloth's hull is under the cloth: the
+    # flat triangles of a coarse mesh cut chords through a convex part (a bust, a thigh), and
+    # the points they leave out are the ones that grow the tape most.
+    inside = (pts @ hg.equations[:, :2].T + hg.equations[:, 2]).max(axis=1) <= CONTACT_M
     if inside.sum() < 3:
         return g, np.nan, np.nan
     a, b, t = a[inside], b[inside], t[inside]
@@ -494,6 +526,7 @@ def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return
         # A skirt or dress the seat holds is drafted down from the waist by the body's
         # waist-to-hip: its seat line moves with that length, not with the stature.
         zmap = with_seat_line(zmap, base_body, target_body)
+    zmap = with_shoulder_line(zmap, base_body, target_body)
     S, E2 = _stretch_targets(mesh, xbar, prof, zmap, sleeves)
     # Each dart's wedge joins the fit as triangles of its own, so its intake follows the
     # girths at its tip and its open end (_dart_wedges).

@@ -361,6 +361,39 @@ def test_the_armhole_deepens_by_what_the_body_grew_between_armpit_and_shoulders(
     assert plain < 0.5 * dz
 
 
+def test_a_darted_bodice_follows_the_bust_point_and_a_skirt_does_not(skirt):
+    # A bodice shaped by darts is drafted around the bust point: the height map gets a knot
+    # there, where the same landmark vertices are on the target. A bust 1.5 cm lower, with
+    # the waist and armpit where they were, moves that level by 1.5 cm; the map of the
+    # sections alone leaves it in place.
+    from seamfit.body import load_body
+    from seamfit.body.shape_model import hm08_landmarks
+    from seamfit.mesh import build_sewn_mesh
+    from seamfit.opt.level_scale import (BUST_POINT, base_levels, darted_above_the_waist, level_map,
+                                         map_height, with_bust_point)
+    from seamfit.pattern import load_pattern
+    body = load_body(SAMPLES / "bodies/women_size06.obj")
+    lv = base_levels(body)
+    bodice = build_sewn_mesh(load_pattern(SAMPLES / "patterns/fs_bodice/size06/pattern.json"), edge_length_cm=4.0)
+    assert darted_above_the_waist(bodice, bodice.x0, lv)
+    mesh, xbar, _, _ = skirt
+    assert not darted_above_the_waist(mesh, xbar, lv)     # its darts end below the waist
+    lm = hm08_landmarks()
+    idx = np.concatenate([np.atleast_1d(lm[n]) for n in BUST_POINT])
+    bust = float(body.vertices[idx, 2].mean())
+    lo, hi = lv["waist"] + 0.01, lv["armpit"] - 0.01
+    v = np.array(body.vertices, dtype=float)
+    z = v[:, 2]
+    hat = np.clip(np.minimum((z - lo) / (bust - lo), (hi - z) / (hi - bust)), 0.0, 1.0)
+    dz = -0.015
+    v[:, 2] = z + dz * hat
+    target = replace(body, vertices=v)
+    plain = level_map(body, target)
+    moved = map_height(np.array([bust]), *with_bust_point(plain, body, target))[0] - bust
+    assert moved == pytest.approx(dz, abs=1e-6)
+    assert abs(map_height(np.array([bust]), *plain)[0] - bust) < 0.2 * abs(dz)
+
+
 def test_at_the_crotch_a_sliver_round_the_axis_is_no_torso():
     # Where the legs part, the loop round the body's axis can be a sliver between them; the
     # cloth nearest it once made a 5 cm "girth" and a trouser's crotch level a stretch of 4.6.
@@ -441,13 +474,14 @@ def test_a_body_of_another_mesh_keeps_the_height_map():
     # The seat line needs the landmark-based waist-to-hip, which only the MakeHuman
     # mesh's landmarks give; any other mesh keeps the map of its sections.
     from seamfit.body import load_body
-    from seamfit.opt.level_scale import level_map, with_seat_line, with_shoulder_line
+    from seamfit.opt.level_scale import level_map, with_bust_point, with_seat_line, with_shoulder_line
     body = load_body(SAMPLES / "bodies/women_size06.obj")
     other = replace(body, faces=np.asarray(body.faces)[::-1].copy())
     zmap = level_map(other, other)
     out = with_seat_line(zmap, other, other)
     assert out is zmap
     assert with_shoulder_line(zmap, other, other) is zmap
+    assert with_bust_point(zmap, other, other) is zmap
 
 
 def test_a_level_through_the_waist_opening_stretches_as_the_waist_below_it(skirt):

@@ -13,8 +13,9 @@ a target stretch:
   change, not in proportion to it;
 * across that direction, by sy(z), the slope at z of the piecewise linear map that takes
   the base body's levels (soles, crotch, waist, armpit, crown) to where the same body
-  sections are on the target, and the shoulder line to where its landmarks went; a skirt
-  the seat holds also has its seat line the target's waist-to-hip below the target's waist.
+  sections are on the target, and the shoulder line (and, for a bodice shaped by darts,
+  the bust point) to where its landmarks went; a skirt the seat holds also has its seat
+  line the target's waist-to-hip below the target's waist.
 
 dH is measured where most of the garment's girth rests on the body; between two such
 levels it is interpolated, and where the garment hangs free (a skirt below the seat, a
@@ -140,6 +141,37 @@ def with_shoulder_line(zmap, base_body, target_body):
     kb = float(np.asarray(base_body.vertices)[idx, 2].mean())
     kt = float(np.asarray(target_body.vertices)[idx, 2].mean())
     return _with_knot(zmap, kb, kt)
+
+
+BUST_POINT = ("bust_point_L", "bust_point_R")
+
+
+def with_bust_point(zmap, base_body, target_body):
+    """The height map with a knot at the bust points' height, placed where those vertices
+    are on the target: a bodice shaped by darts is drafted around the bust point, at which
+    its darts aim. Bodies of another mesh than MakeHuman's (hm08) keep the map as it is."""
+    lm = _hm08_landmarks(base_body, target_body)
+    if lm is None:
+        return zmap
+    idx = np.concatenate([np.atleast_1d(lm[n]) for n in BUST_POINT])
+    kb = float(np.asarray(base_body.vertices)[idx, 2].mean())
+    kt = float(np.asarray(target_body.vertices)[idx, 2].mean())
+    return _with_knot(zmap, kb, kt)
+
+
+def darted_above_the_waist(mesh, xbar, levels: dict) -> bool:
+    """Whether a dart of the garment (a stitch of one panel to itself, from a tip) has its
+    tip between the waist and the armpit on the base drape: a bodice shaped to the bust. A
+    loose top has none, and its drafts do not follow the bust point."""
+    lo, hi = float(levels["waist"]), float(levels["armpit"])
+    for k, st in enumerate(mesh.stitches):
+        if st.panel_a != st.panel_b:
+            continue
+        pr = np.asarray(mesh.stitch_pairs[k]).reshape(-1, 2)
+        tips = pr[pr[:, 0] == pr[:, 1], 0]
+        if np.any((xbar[tips, 2] > lo) & (xbar[tips, 2] < hi)):
+            return True
+    return False
 
 
 def _monotone(zb, zt):
@@ -527,6 +559,8 @@ def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return
         # waist-to-hip: its seat line moves with that length, not with the stature.
         zmap = with_seat_line(zmap, base_body, target_body)
     zmap = with_shoulder_line(zmap, base_body, target_body)
+    if darted_above_the_waist(mesh, xbar, levels):
+        zmap = with_bust_point(zmap, base_body, target_body)
     S, E2 = _stretch_targets(mesh, xbar, prof, zmap, sleeves)
     # Each dart's wedge joins the fit as triangles of its own, so its intake follows the
     # girths at its tip and its open end (_dart_wedges).

@@ -66,7 +66,7 @@ def test_writes_pattern_nest_drape_and_report(graded):
 def test_the_report_says_what_the_start_measured(graded):
     _, rep = graded
     # a pencil skirt: held by the seat, so its seat line follows the waist-to-hip; no sleeves
-    assert rep["start"] == {"from": "level scaling", "sleeve_panels": [], "seat_line": True}
+    assert rep["start"] == {"from": "level scaling", "sleeve_panels": [], "seat_line": True, "natural_waist": False}
 
 
 def test_adjusted_pattern_keeps_the_structure(graded):

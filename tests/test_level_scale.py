@@ -394,6 +394,42 @@ def test_a_darted_bodice_follows_the_bust_point_and_a_skirt_does_not(skirt):
     assert abs(map_height(np.array([bust]), *plain)[0] - bust) < 0.2 * abs(dz)
 
 
+def test_a_flare_hangs_from_the_natural_waist_and_a_pencil_skirt_does_not(skirt):
+    # A skirt the hip does not hold (a circle skirt) hangs from the waist tape: the height
+    # map gets a knot at MakeHuman's waist ring, where its vertices are on the target. A
+    # waist 1.5 cm lower, with the crotch and armpit in place, moves that level 1.5 cm.
+    from seamfit.body import build_sdf, load_body
+    from seamfit.body.shape_model import hm08_landmarks
+    from seamfit.mesh import build_sewn_mesh
+    from seamfit.opt.grade import base_drape
+    from seamfit.opt.level_scale import (NATURAL_WAIST, base_levels, level_map, level_scaled_pattern,
+                                         map_height, with_natural_waist)
+    from seamfit.pattern import load_pattern
+    from seamfit.sim.model import Fabric, SimSettings
+    mesh, xbar, body, sdf = skirt
+    target = load_body(SAMPLES / "bodies/women_size10.obj")
+    _, info = level_scaled_pattern(mesh, xbar, body, target, sdf, return_info=True)
+    assert info["seat_line"] and not info["natural_waist"]
+    circle = load_pattern(SAMPLES / "patterns/gc_circle_skirt/size06/pattern.json")
+    cmesh = build_sewn_mesh(circle, edge_length_cm=4.0)
+    cx, _ = base_drape(cmesh, circle, body, sdf, Fabric(), SimSettings())
+    _, info = level_scaled_pattern(cmesh, cx, body, target, sdf, return_info=True)
+    assert info["natural_waist"] and not info["seat_line"]
+    lv = base_levels(body)
+    idx = np.atleast_1d(np.asarray(hm08_landmarks()[NATURAL_WAIST]))
+    waist = float(body.vertices[idx, 2].mean())
+    r0, r1 = float(body.vertices[idx, 2].min()), float(body.vertices[idx, 2].max())   # the ring's band
+    lo, hi = lv["crotch"] + 0.01, lv["armpit"] - 0.01
+    v = np.array(body.vertices, dtype=float)
+    z = v[:, 2]
+    hat = np.clip(np.minimum((z - lo) / (r0 - lo), (hi - z) / (hi - r1)), 0.0, 1.0)
+    dz = -0.015
+    v[:, 2] = z + dz * hat
+    lower = replace(body, vertices=v)
+    moved = map_height(np.array([waist]), *with_natural_waist(level_map(body, lower), body, lower))[0] - waist
+    assert moved == pytest.approx(dz, abs=1e-6)
+
+
 def test_at_the_crotch_a_sliver_round_the_axis_is_no_torso():
     # Where the legs part, the loop round the body's axis can be a sliver between them; the
     # cloth nearest it once made a 5 cm "girth" and a trouser's crotch level a stretch of 4.6.
@@ -474,7 +510,8 @@ def test_a_body_of_another_mesh_keeps_the_height_map():
     # The seat line needs the landmark-based waist-to-hip, which only the MakeHuman
     # mesh's landmarks give; any other mesh keeps the map of its sections.
     from seamfit.body import load_body
-    from seamfit.opt.level_scale import level_map, with_bust_point, with_seat_line, with_shoulder_line
+    from seamfit.opt.level_scale import (level_map, with_bust_point, with_natural_waist, with_seat_line,
+                                         with_shoulder_line)
     body = load_body(SAMPLES / "bodies/women_size06.obj")
     other = replace(body, faces=np.asarray(body.faces)[::-1].copy())
     zmap = level_map(other, other)
@@ -482,6 +519,7 @@ def test_a_body_of_another_mesh_keeps_the_height_map():
     assert out is zmap
     assert with_shoulder_line(zmap, other, other) is zmap
     assert with_bust_point(zmap, other, other) is zmap
+    assert with_natural_waist(zmap, other, other) is zmap
 
 
 def test_a_level_through_the_waist_opening_stretches_as_the_waist_below_it(skirt):

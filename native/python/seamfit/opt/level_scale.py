@@ -15,7 +15,8 @@ a target stretch:
   the base body's levels (soles, crotch, waist, armpit, crown) to where the same body
   sections are on the target, and the shoulder line (and, for a bodice shaped by darts,
   the bust point) to where its landmarks went; a skirt the seat holds also has its seat
-  line the target's waist-to-hip below the target's waist.
+  line the target's waist-to-hip below the target's waist, and a flare (a skirt the seat does
+  not hold) a knot at the natural waist it hangs from.
 
 dH is measured where most of the garment's girth rests on the body; between two such
 levels it is interpolated, and where the garment hangs free (a skirt below the seat, a
@@ -138,6 +139,23 @@ def with_shoulder_line(zmap, base_body, target_body):
     if lm is None:
         return zmap
     idx = np.concatenate([np.atleast_1d(lm[n]) for n in SHOULDER_LINE])
+    kb = float(np.asarray(base_body.vertices)[idx, 2].mean())
+    kt = float(np.asarray(target_body.vertices)[idx, 2].mean())
+    return _with_knot(zmap, kb, kt)
+
+
+NATURAL_WAIST = "waist_ring"
+
+
+def with_natural_waist(zmap, base_body, target_body):
+    """The height map with a knot at the natural waist (the mean height of MakeHuman's waist
+    ring), placed where that ring is on the target: a flare hangs from the waist tape, where
+    the drafts put its waistline. Bodies of another mesh than MakeHuman's (hm08) keep the map
+    as it is."""
+    lm = _hm08_landmarks(base_body, target_body)
+    if lm is None:
+        return zmap
+    idx = np.atleast_1d(np.asarray(lm[NATURAL_WAIST]))
     kb = float(np.asarray(base_body.vertices)[idx, 2].mean())
     kt = float(np.asarray(target_body.vertices)[idx, 2].mean())
     return _with_knot(zmap, kb, kt)
@@ -559,6 +577,10 @@ def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return
         # waist-to-hip: its seat line moves with that length, not with the stature.
         zmap = with_seat_line(zmap, base_body, target_body)
     zmap = with_shoulder_line(zmap, base_body, target_body)
+    flare = one_tube and not prof["hip_supported"]
+    if flare:
+        # A skirt the hip does not hold (a circle skirt) hangs from the natural waist.
+        zmap = with_natural_waist(zmap, base_body, target_body)
     if darted_above_the_waist(mesh, xbar, levels):
         zmap = with_bust_point(zmap, base_body, target_body)
     S, E2 = _stretch_targets(mesh, xbar, prof, zmap, sleeves)
@@ -574,5 +596,5 @@ def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return
         tri_panel = np.asarray(mesh.vertex_panel)[np.asarray(mesh.triangles)[:, 0]]
         sleeve_panels = [mesh.panel_names[k] for k in np.unique(tri_panel[sleeves[0]])]
         return p, {"levels": zmap, "profile": prof, "sleeve_panels": sleeve_panels,
-                   "seat_line": bool(one_tube and prof["hip_supported"])}
+                   "seat_line": bool(one_tube and prof["hip_supported"]), "natural_waist": bool(flare)}
     return p

@@ -211,8 +211,10 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         p_level, info = level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, return_info=True)
         theta_level = param.theta_of(p_level)
         # what the start measured, for the report: panels graded around the arm, and
-        # whether the seat line moved with the body's waist-to-hip
-        start = {"from": "level scaling", "sleeve_panels": info["sleeve_panels"], "seat_line": info["seat_line"]}
+        # whether the seat line moved with the body's waist-to-hip or a flare hangs from the
+        # natural waist
+        start = {"from": "level scaling", "sleeve_panels": info["sleeve_panels"], "seat_line": info["seat_line"],
+                 "natural_waist": info["natural_waist"]}
     # R^fix shapes the preconditioner; in f it would pull the pattern back to the base
     # (docs/grading.md, "R^fix in the preconditioner only").
     regs = Regularizers(param, strengths.fix, strengths.cur,

@@ -416,7 +416,7 @@ def test_a_flare_hangs_from_the_natural_waist_and_a_pencil_skirt_does_not(skirt)
     _, info = level_scaled_pattern(cmesh, cx, body, target, sdf, return_info=True)
     assert info["natural_waist"] and not info["seat_line"]
     lv = base_levels(body)
-    idx = np.atleast_1d(np.asarray(hm08_landmarks()[NATURAL_WAIST]))
+    idx = np.concatenate([np.atleast_1d(np.asarray(hm08_landmarks()[n])) for n in NATURAL_WAIST])
     waist = float(body.vertices[idx, 2].mean())
     r0, r1 = float(body.vertices[idx, 2].min()), float(body.vertices[idx, 2].max())   # the ring's band
     lo, hi = lv["crotch"] + 0.01, lv["armpit"] - 0.01

@@ -126,55 +126,41 @@ def with_seat_line(zmap, base_body, target_body):
     return _with_knot(zmap, kb, kt)
 
 
+def _landmark_knot(zmap, base_body, target_body, names):
+    """The height map with a knot at the mean height of the named MakeHuman landmarks (a
+    ring counts all its vertices), placed where the same vertices are on the target. Bodies
+    of another mesh than MakeHuman's (hm08) keep the map as it is."""
+    lm = _hm08_landmarks(base_body, target_body)
+    if lm is None:
+        return zmap
+    idx = np.concatenate([np.atleast_1d(np.asarray(lm[n])) for n in names])
+    kb = float(np.asarray(base_body.vertices)[idx, 2].mean())
+    kt = float(np.asarray(target_body.vertices)[idx, 2].mean())
+    return _with_knot(zmap, kb, kt)
+
+
 SHOULDER_LINE = ("neck_side_L", "neck_side_R", "shoulder_point_L", "shoulder_point_R")
-
-
-def with_shoulder_line(zmap, base_body, target_body):
-    """The height map with a knot at the shoulder line (the mean height of the landmarks at
-    both ends of both shoulder seams), placed where those vertices are on the target. The
-    head does not grow with the size, so between the armpit and the crown a fuller body's
-    growth is all below the shoulders: drafts deepen the armhole by it. Bodies of another
-    mesh than MakeHuman's (hm08) keep the map as it is."""
-    lm = _hm08_landmarks(base_body, target_body)
-    if lm is None:
-        return zmap
-    idx = np.concatenate([np.atleast_1d(lm[n]) for n in SHOULDER_LINE])
-    kb = float(np.asarray(base_body.vertices)[idx, 2].mean())
-    kt = float(np.asarray(target_body.vertices)[idx, 2].mean())
-    return _with_knot(zmap, kb, kt)
-
-
-NATURAL_WAIST = "waist_ring"
-
-
-def with_natural_waist(zmap, base_body, target_body):
-    """The height map with a knot at the natural waist (the mean height of MakeHuman's waist
-    ring), placed where that ring is on the target: a flare hangs from the waist tape, where
-    the drafts put its waistline. Bodies of another mesh than MakeHuman's (hm08) keep the map
-    as it is."""
-    lm = _hm08_landmarks(base_body, target_body)
-    if lm is None:
-        return zmap
-    idx = np.atleast_1d(np.asarray(lm[NATURAL_WAIST]))
-    kb = float(np.asarray(base_body.vertices)[idx, 2].mean())
-    kt = float(np.asarray(target_body.vertices)[idx, 2].mean())
-    return _with_knot(zmap, kb, kt)
-
-
+NATURAL_WAIST = ("waist_ring",)
 BUST_POINT = ("bust_point_L", "bust_point_R")
 
 
+def with_shoulder_line(zmap, base_body, target_body):
+    """A knot at the shoulder line (both ends of both shoulder seams). The head does not
+    grow with the size, so between the armpit and the crown a fuller body's growth is all
+    below the shoulders: drafts deepen the armhole by it."""
+    return _landmark_knot(zmap, base_body, target_body, SHOULDER_LINE)
+
+
+def with_natural_waist(zmap, base_body, target_body):
+    """A knot at the natural waist (MakeHuman's waist ring): a flare hangs from the waist
+    tape, where the drafts put its waistline."""
+    return _landmark_knot(zmap, base_body, target_body, NATURAL_WAIST)
+
+
 def with_bust_point(zmap, base_body, target_body):
-    """The height map with a knot at the bust points' height, placed where those vertices
-    are on the target: a bodice shaped by darts is drafted around the bust point, at which
-    its darts aim. Bodies of another mesh than MakeHuman's (hm08) keep the map as it is."""
-    lm = _hm08_landmarks(base_body, target_body)
-    if lm is None:
-        return zmap
-    idx = np.concatenate([np.atleast_1d(lm[n]) for n in BUST_POINT])
-    kb = float(np.asarray(base_body.vertices)[idx, 2].mean())
-    kt = float(np.asarray(target_body.vertices)[idx, 2].mean())
-    return _with_knot(zmap, kb, kt)
+    """A knot at the bust points: a bodice shaped by darts is drafted around the bust
+    point, at which its darts aim."""
+    return _landmark_knot(zmap, base_body, target_body, BUST_POINT)
 
 
 def darted_above_the_waist(mesh, xbar, levels: dict) -> bool:

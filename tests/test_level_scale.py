@@ -361,13 +361,25 @@ def test_the_armhole_deepens_by_what_the_body_grew_between_armpit_and_shoulders(
     assert plain < 0.5 * dz
 
 
+def _landmarks_moved(body, names, lo: float, hi: float, dz: float):
+    """(the body with the named MakeHuman landmarks' band moved dz up, tapering to nothing at
+    lo and hi, the landmarks' mean height before)."""
+    from seamfit.body.shape_model import hm08_landmarks
+    lm = hm08_landmarks()
+    idx = np.concatenate([np.atleast_1d(np.asarray(lm[n])) for n in names])
+    zl = body.vertices[idx, 2]
+    v = np.array(body.vertices, dtype=float)
+    z = v[:, 2]
+    v[:, 2] = z + dz * np.clip(np.minimum((z - lo) / (zl.min() - lo), (hi - z) / (hi - zl.max())), 0.0, 1.0)
+    return replace(body, vertices=v), float(zl.mean())
+
+
 def test_a_darted_bodice_follows_the_bust_point_and_a_skirt_does_not(skirt):
     # A bodice shaped by darts is drafted around the bust point: the height map gets a knot
     # there, where the same landmark vertices are on the target. A bust 1.5 cm lower, with
     # the waist and armpit where they were, moves that level by 1.5 cm; the map of the
     # sections alone leaves it in place.
     from seamfit.body import load_body
-    from seamfit.body.shape_model import hm08_landmarks
     from seamfit.mesh import build_sewn_mesh
     from seamfit.opt.level_scale import (BUST_POINT, base_levels, darted_above_the_waist, level_map,
                                          map_height, with_bust_point)
@@ -378,16 +390,8 @@ def test_a_darted_bodice_follows_the_bust_point_and_a_skirt_does_not(skirt):
     assert darted_above_the_waist(bodice, bodice.x0, lv)
     mesh, xbar, _, _ = skirt
     assert not darted_above_the_waist(mesh, xbar, lv)     # its darts end below the waist
-    lm = hm08_landmarks()
-    idx = np.concatenate([np.atleast_1d(lm[n]) for n in BUST_POINT])
-    bust = float(body.vertices[idx, 2].mean())
-    lo, hi = lv["waist"] + 0.01, lv["armpit"] - 0.01
-    v = np.array(body.vertices, dtype=float)
-    z = v[:, 2]
-    hat = np.clip(np.minimum((z - lo) / (bust - lo), (hi - z) / (hi - bust)), 0.0, 1.0)
     dz = -0.015
-    v[:, 2] = z + dz * hat
-    target = replace(body, vertices=v)
+    target, bust = _landmarks_moved(body, BUST_POINT, lv["waist"] + 0.01, lv["armpit"] - 0.01, dz)
     plain = level_map(body, target)
     moved = map_height(np.array([bust]), *with_bust_point(plain, body, target))[0] - bust
     assert moved == pytest.approx(dz, abs=1e-6)
@@ -398,8 +402,7 @@ def test_a_flare_hangs_from_the_natural_waist_and_a_pencil_skirt_does_not(skirt)
     # A skirt the hip does not hold (a circle skirt) hangs from the waist tape: the height
     # map gets a knot at MakeHuman's waist ring, where its vertices are on the target. A
     # waist 1.5 cm lower, with the crotch and armpit in place, moves that level 1.5 cm.
-    from seamfit.body import build_sdf, load_body
-    from seamfit.body.shape_model import hm08_landmarks
+    from seamfit.body import load_body
     from seamfit.mesh import build_sewn_mesh
     from seamfit.opt.grade import base_drape
     from seamfit.opt.level_scale import (NATURAL_WAIST, base_levels, level_map, level_scaled_pattern,
@@ -416,16 +419,8 @@ def test_a_flare_hangs_from_the_natural_waist_and_a_pencil_skirt_does_not(skirt)
     _, info = level_scaled_pattern(cmesh, cx, body, target, sdf, return_info=True)
     assert info["natural_waist"] and not info["seat_line"]
     lv = base_levels(body)
-    idx = np.concatenate([np.atleast_1d(np.asarray(hm08_landmarks()[n])) for n in NATURAL_WAIST])
-    waist = float(body.vertices[idx, 2].mean())
-    r0, r1 = float(body.vertices[idx, 2].min()), float(body.vertices[idx, 2].max())   # the ring's band
-    lo, hi = lv["crotch"] + 0.01, lv["armpit"] - 0.01
-    v = np.array(body.vertices, dtype=float)
-    z = v[:, 2]
-    hat = np.clip(np.minimum((z - lo) / (r0 - lo), (hi - z) / (hi - r1)), 0.0, 1.0)
     dz = -0.015
-    v[:, 2] = z + dz * hat
-    lower = replace(body, vertices=v)
+    lower, waist = _landmarks_moved(body, NATURAL_WAIST, lv["crotch"] + 0.01, lv["armpit"] - 0.01, dz)
     moved = map_height(np.array([waist]), *with_natural_waist(level_map(body, lower), body, lower))[0] - waist
     assert moved == pytest.approx(dz, abs=1e-6)
 

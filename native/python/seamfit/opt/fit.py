@@ -65,10 +65,17 @@ def torso_cloth(slicer: _Slicer, z: float, body_pts: np.ndarray, garment_pts: np
     return None if h is None else (ids, kept, h)
 
 
+def outside_by(hull, points: np.ndarray) -> np.ndarray:
+    """Per point, how far (m) it lies outside the 2-D hull along the farthest facet's
+    normal: <= 0 inside, the distance for a point beyond one edge, a lower bound past a
+    corner."""
+    eq = hull.equations
+    return (points @ eq[:, :2].T + eq[:, 2]).max(axis=1)
+
+
 def goes_around(garment_hull, body_pts: np.ndarray) -> bool:
     """Whether the garment's section (its hull) goes around the body's section points."""
-    eq = garment_hull.equations
-    return bool((body_pts @ eq[:, :2].T + eq[:, 2]).max() <= ENCLOSE_TOL_M)
+    return bool(outside_by(garment_hull, body_pts).max() <= ENCLOSE_TOL_M)
 
 
 def garment_tape(slicer: _Slicer, x: np.ndarray, triangles: np.ndarray, z: float) -> tuple[float, float]:

@@ -41,7 +41,7 @@ from scipy.sparse.linalg import spsolve
 from ..body.measure import _Slicer, body_measurements
 from .costs import sample_sdf
 from .fit import hull as _hull
-from .fit import mesh_cross_section, torso_cloth
+from .fit import mesh_cross_section, outside_by, torso_cloth
 from .sleeves import sleeve_targets
 
 # A garment vertex this close to the body (m) is held by it (the drape rests on the
@@ -315,7 +315,7 @@ def _enclosed_growth(slicer: _Slicer, target_v: np.ndarray, z: float, garment_pt
     # A body point up to contact distance outside the cloth's hull is under the cloth: the
     # flat triangles of a coarse mesh cut chords through a convex part (a bust, a thigh), and
     # the points they leave out are the ones that grow the tape most.
-    inside = (pts @ hg.equations[:, :2].T + hg.equations[:, 2]).max(axis=1) <= CONTACT_M
+    inside = outside_by(hg, pts) <= CONTACT_M
     if inside.sum() < 3:
         return g, np.nan, np.nan
     a, b, t = a[inside], b[inside], t[inside]

@@ -43,7 +43,7 @@ def test_fail_unconverged_exits_1_with_the_results_written(tmp_path):
 def graded(tmp_path_factory):
     out = tmp_path_factory.mktemp("grade")
     before = _sha(PATTERN)
-    rep = _grade(out)
+    rep = _grade(out, "--report-base-pattern")
     assert _sha(PATTERN) == before, "the input pattern must never be modified"
     return out, rep
 
@@ -86,6 +86,19 @@ def test_adjusted_pattern_keeps_the_structure(graded):
 def _max_move(a, b):
     return 10 * max(float(np.linalg.norm(pa.outline_cm - pb.outline_cm, axis=1).max())
                     for pa, pb in zip(a.panels, b.panels))
+
+
+def test_the_unchanged_patterns_drape_is_for_the_report_only(graded, tmp_path):
+    """By default the unchanged pattern is not draped on the target (one drape less);
+    --report-base-pattern adds its objective to the report and changes nothing else."""
+    out, rep = graded
+    assert rep["objective_base_pattern"] > 0 and rep["settings"]["evaluate_base_pattern"] is True
+    plain = _grade(tmp_path / "plain")
+    assert plain["objective_base_pattern"] is None and plain["settings"]["evaluate_base_pattern"] is False
+    assert plain["objective_final"] == rep["objective_final"]
+    a, b = load_pattern(out / "pattern.json"), load_pattern(tmp_path / "plain" / "pattern.json")
+    for pa, pb in zip(a.panels, b.panels):
+        assert np.array_equal(np.asarray(pa.outline_cm), np.asarray(pb.outline_cm)), pa.name
 
 
 def test_objective_falls_and_checkpoints_never_rise(graded):

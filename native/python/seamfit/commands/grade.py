@@ -103,6 +103,9 @@ def add_grade_options(p, *, truth: bool) -> None:
                    help=f"stop once a checkpoint moved no pattern point more than MM since the last "
                         f"one (default {d.stop_move_mm}; 0: run to the objective's own stop or the budget)")
     p.add_argument("--time-budget", metavar="S", type=float, default=0.0, help="stop after S seconds (default: none)")
+    p.add_argument("--report-base-pattern", action="store_true", default=d.evaluate_base_pattern,
+                   help="also drape the unchanged base pattern on the target body and report its objective "
+                        "(objective_base_pattern; one more drape)")
     if truth:
         p.add_argument("--truth", metavar="PATTERN", type=Path, default=None,
                        help="a pattern drafted for the target body: report landmark errors against it")
@@ -207,7 +210,8 @@ def settings_from_args(args, base_pattern):
                              sdf_region_margin=args.sdf_margin, inner_iterations=args.inner_iterations,
                              checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,
                              time_budget_s=args.time_budget, device=args.device,
-                             adjoint_forcing=args.adjoint_forcing, stop_move_mm=args.stop_move_mm)
+                             adjoint_forcing=args.adjoint_forcing, stop_move_mm=args.stop_move_mm,
+                             evaluate_base_pattern=args.report_base_pattern)
     settings.validate()
     return settings
 

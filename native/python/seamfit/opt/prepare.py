@@ -130,7 +130,8 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
             sim_settings: SimSettings | None = None, progress: ProgressFn | None = None,
             shared: dict | None = None) -> GradeContext:
     """Mesh, SDFs, x-bar, x-tilde and the grading objective; with
-    ``settings.evaluate_base_pattern`` also the objective of the unchanged pattern on the target.
+    ``settings.evaluate_base_pattern`` (or a baseline method) also the objective of the unchanged
+    pattern on the target.
     ``shared``: a dict kept across the calls of one size run (same base pattern, base body,
     settings and fabric), holding what depends only on the base."""
     from ..body import check_body
@@ -249,7 +250,8 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     ctx.extra["start"] = start
     ctx.extra["device_choice"] = device_choice
     ctx.extra["shared"] = shared
-    if settings.evaluate_base_pattern:
+    if settings.evaluate_base_pattern or settings.method != "adjoint":
+        # the baselines start from this drape, so its objective costs them one evaluation
         rb = ctx.start_from_base_pattern()
         ctx.objective_base, ctx.terms_base = ctx.objective.objective(rb.x, param.theta_bar)
     return ctx

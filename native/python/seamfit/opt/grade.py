@@ -111,6 +111,12 @@ class GradeSettings:
             return Strengths.from_any(self.strengths)
         return preset(self.preset, garment_type).strengths
 
+    @property
+    def drapes_base_pattern(self) -> bool:
+        """Whether a grading drapes the unchanged pattern on the target: for the report
+        (evaluate_base_pattern), or because its method starts from that drape (the baselines)."""
+        return self.evaluate_base_pattern or self.method != "adjoint"
+
     def validate(self) -> None:
         if self.device not in ("auto", "cpu", "cuda"):
             raise SolveError(f"unknown device {self.device!r}; choose auto, cpu or cuda")

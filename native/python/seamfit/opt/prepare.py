@@ -250,7 +250,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     ctx.extra["start"] = start
     ctx.extra["device_choice"] = device_choice
     ctx.extra["shared"] = shared
-    if settings.evaluate_base_pattern or settings.method != "adjoint":
+    if settings.drapes_base_pattern:
         # the baselines start from this drape, so its objective costs them one evaluation
         rb = ctx.start_from_base_pattern()
         ctx.objective_base, ctx.terms_base = ctx.objective.objective(rb.x, param.theta_bar)

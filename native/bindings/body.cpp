@@ -9,6 +9,11 @@
 #include "finite_check.hpp"
 #include "body/sdf_build.hpp"
 #include "body/sdf_grid.hpp"
+#ifdef SEAMFIT_WITH_CUDA
+#include "device_info.hpp"
+#include "sdf_gpu.hpp"
+#include "sim_gpu.hpp"
+#endif
 
 namespace py = pybind11;
 
@@ -42,6 +47,20 @@ body::SdfBuildParams make_params(double spacing, double padding, const py::objec
   return p;
 }
 
+// "cpu", or "cuda" where this build has the CUDA backend and a GPU is present.
+void set_device(body::SdfBuildParams& p, const std::string& device) {
+  if (device == "cpu") return;
+  if (device != "cuda") throw std::invalid_argument("unknown device '" + device + "' (cpu or cuda)");
+#ifdef SEAMFIT_WITH_CUDA
+  if (cuda::device_count() == 0)
+    throw cuda::CudaError("device cuda: no CUDA GPU or driver is present on this machine");
+  p.gpu = true;
+  p.gpu_distances = &cuda::sdf_gpu_distances;
+#else
+  throw std::invalid_argument("device cuda: this seamfit build has no CUDA backend (it was built without nvcc)");
+#endif
+}
+
 py::dict layout_dict(const body::SdfLayout& L) {
   py::dict d;
   d["origin"] = py::make_tuple(L.origin[0], L.origin[1], L.origin[2]);
@@ -65,10 +84,11 @@ void bind_body(py::module_& m) {
   m.def(
       "sdf_build",
       [](F64 vertices, I32 faces, double spacing, double padding, py::object bounds, double band, int rounds,
-         int threads, int64_t max_nodes) {
+         int threads, int64_t max_nodes, const std::string& device) {
         need_n3(vertices, "vertices");
         need_n3(faces, "faces");
         auto p = make_params(spacing, padding, bounds, band, rounds, threads);
+        set_device(p, device);
         body::SdfLayout L = body::sdf_layout(vertices.data(), vertices.shape(0), p);
         if (L.nodes() > max_nodes)
           throw std::invalid_argument("grid of " + std::to_string(L.dims[0]) + " x " + std::to_string(L.dims[1]) +
@@ -86,11 +106,13 @@ void bind_body(py::module_& m) {
         }
         py::dict info = layout_dict(L);
         info["spacing"] = spacing;
+        info["device"] = device;
         info["seconds_total"] = st.seconds_total;
         info["seconds_band"] = st.seconds_band;
         info["seconds_seed"] = st.seconds_seed;
         info["seconds_propagate"] = st.seconds_propagate;
         info["seconds_sign"] = st.seconds_sign;
+        info["seconds_gpu"] = st.seconds_gpu;
         info["band_evaluations"] = st.band_evaluations;
         info["propagate_evaluations"] = st.propagate_evaluations;
         info["seeded_nodes"] = st.seeded_nodes;
@@ -103,9 +125,11 @@ void bind_body(py::module_& m) {
       },
       py::arg("vertices"), py::arg("faces"), py::arg("spacing") = 0.0025, py::arg("padding") = 0.05,
       py::arg("bounds") = py::none(), py::arg("band") = 1.5, py::arg("rounds") = 1, py::arg("threads") = 0,
-      py::arg("max_nodes") = int64_t(400000000),
+      py::arg("max_nodes") = int64_t(400000000), py::arg("device") = "cpu",
       "Signed distance field of a triangle mesh on a regular grid (negative inside). Returns (values "
-      "float32 (nz, ny, nx), info dict with origin, dims, spacing, timings and counters). Releases the GIL.");
+      "float32 (nz, ny, nx), info dict with origin, dims, spacing, device, timings and counters). device "
+      "\"cuda\": exact nearest-triangle distances on the GPU (band and rounds unused), the sign on the CPU. "
+      "Releases the GIL.");
 
   m.def(
       "sdf_sample_points",

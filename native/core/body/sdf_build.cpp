@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "body/tri_bvh.hpp"
 #include "body/tri_distance.hpp"
 
 namespace seamfit::body {
@@ -82,104 +83,6 @@ RowBuckets bucket_rows(int64_t n_items, int64_t nz, RangeFn range_k) {
   }
   return b;
 }
-
-// ---------------------------------------------------------------- BVH (bounds mode)
-
-class TriBvh {
- public:
-  explicit TriBvh(const std::vector<TriPre>& tris) : tris_(tris) {
-    order_.resize(tris.size());
-    std::iota(order_.begin(), order_.end(), 0);
-    cen_.resize(tris.size());
-    for (size_t t = 0; t < tris.size(); ++t) cen_[t] = tri_vec(tris[t].centre);
-    nodes_.reserve(2 * tris.size() / kLeaf + 2);
-    build(0, int64_t(tris.size()));
-  }
-
-  // Nearest triangle to p; best_d2 and best_t carry an initial candidate (or inf, -1).
-  void nearest(Vec3 p, double& best_d2, int32_t& best_t) const {
-    int32_t stack[128];
-    int sp = 0;
-    stack[sp++] = 0;
-    while (sp > 0) {
-      const Node& nd = nodes_[stack[--sp]];
-      if (box_d2(nd, p) >= best_d2) continue;
-      if (nd.count > 0) {
-        for (int32_t q = nd.first; q < nd.first + nd.count; ++q) {
-          const int32_t t = order_[q];
-          const double d2 = tri_dist2(tris_[t], p);
-          if (d2 < best_d2) { best_d2 = d2; best_t = t; }
-        }
-        continue;
-      }
-      const int32_t l = nd.left, r = nd.right;
-      const double dl = box_d2(nodes_[l], p), dr = box_d2(nodes_[r], p);
-      // Push the farther child first so the nearer one is searched first.
-      if (dl < dr) { stack[sp++] = r; stack[sp++] = l; }
-      else { stack[sp++] = l; stack[sp++] = r; }
-    }
-  }
-
- private:
-  static constexpr int kLeaf = 4;
-  struct Node {
-    double lo[3], hi[3];
-    int32_t left = -1, right = -1;  // children of an inner node
-    int32_t first = 0, count = 0;   // leaf: range in order_ (count > 0)
-  };
-  const std::vector<TriPre>& tris_;
-  std::vector<int32_t> order_;
-  std::vector<Vec3> cen_;
-  std::vector<Node> nodes_;
-
-  static double box_d2(const Node& nd, Vec3 p) {
-    const double c[3] = {p.x, p.y, p.z};
-    double d2 = 0;
-    for (int a = 0; a < 3; ++a) {
-      const double e = std::max({nd.lo[a] - c[a], 0.0, c[a] - nd.hi[a]});
-      d2 += e * e;
-    }
-    return d2;
-  }
-
-  int32_t build(int64_t s, int64_t e) {
-    const int32_t id = int32_t(nodes_.size());
-    nodes_.push_back(Node{});
-    Node nd;
-    double clo[3] = {1e300, 1e300, 1e300}, chi[3] = {-1e300, -1e300, -1e300};
-    for (int a = 0; a < 3; ++a) { nd.lo[a] = 1e300; nd.hi[a] = -1e300; }
-    for (int64_t q = s; q < e; ++q) {
-      const TriPre& t = tris_[order_[q]];
-      for (const float* v : {t.a, t.b, t.c}) {
-        const double c[3] = {v[0], v[1], v[2]};
-        for (int a = 0; a < 3; ++a) { nd.lo[a] = std::min(nd.lo[a], c[a]); nd.hi[a] = std::max(nd.hi[a], c[a]); }
-      }
-      const Vec3 m = cen_[order_[q]];
-      const double c[3] = {m.x, m.y, m.z};
-      for (int a = 0; a < 3; ++a) { clo[a] = std::min(clo[a], c[a]); chi[a] = std::max(chi[a], c[a]); }
-    }
-    if (e - s <= kLeaf) {
-      nd.first = int32_t(s);
-      nd.count = int32_t(e - s);
-      nodes_[id] = nd;
-      return id;
-    }
-    int axis = 0;
-    for (int a = 1; a < 3; ++a) if (chi[a] - clo[a] > chi[axis] - clo[axis]) axis = a;
-    const int64_t mid = (s + e) / 2;
-    std::nth_element(order_.begin() + s, order_.begin() + mid, order_.begin() + e, [&](int32_t x, int32_t y) {
-      const Vec3 a = cen_[x], b = cen_[y];
-      return axis == 0 ? a.x < b.x : axis == 1 ? a.y < b.y : a.z < b.z;
-    });
-    nd.count = 0;
-    nodes_[id] = nd;
-    const int32_t l = build(s, mid);
-    const int32_t r = build(mid, e);
-    nodes_[id].left = l;
-    nodes_[id].right = r;
-    return id;
-  }
-};
 
 // ---------------------------------------------------------------- boundary caps
 
@@ -351,59 +254,14 @@ SdfLayout sdf_layout(const double* V, int64_t nv, const SdfBuildParams& p) {
   return L;
 }
 
-// ---------------------------------------------------------------- build
+namespace {
 
-SdfBuildStats sdf_build(const double* Vin, int64_t nv, const int32_t* Fin, int64_t nf, const SdfLayout& L,
-                        const SdfBuildParams& P, float* out) {
-  const auto t_start = Clock::now();
-  SdfBuildStats st;
-  const int nt = P.threads > 0 ? P.threads : omp_get_max_threads();
-  st.threads = nt;
-  if (nf <= 0) throw std::invalid_argument("the mesh has no faces");
-  if (nv >= (int64_t(1) << 30)) throw std::invalid_argument("too many vertices (at most 2^30)");
-  for (int64_t v = 0; v < nv; ++v)
-    for (int a = 0; a < 3; ++a)
-      if (!std::isfinite(Vin[3 * v + a]))
-        throw std::invalid_argument("vertex " + std::to_string(v) + " has a non-finite coordinate");
-  for (int64_t f = 0; f < 3 * nf; ++f)
-    if (Fin[f] < 0 || Fin[f] >= nv)
-      throw std::invalid_argument("face " + std::to_string(f / 3) + " refers to vertex " + std::to_string(Fin[f]) +
-                                  " (the mesh has " + std::to_string(nv) + " vertices)");
-  if (L.dims[0] < 2 || L.dims[1] < 2 || L.dims[2] < 2) throw std::invalid_argument("grid needs at least 2 nodes per axis");
-
-  const double h = P.spacing;
-  // Work in a frame centred on the grid: smaller coordinates, smaller rounding.
-  double shift[3];
-  for (int a = 0; a < 3; ++a) shift[a] = L.origin[a] + 0.5 * h * double(L.dims[a] - 1);
-  Grid G{{L.origin[0] - shift[0], L.origin[1] - shift[1], L.origin[2] - shift[2]}, L.dims[0], L.dims[1], L.dims[2], h};
-  const int64_t N = L.nodes();
-
-  std::vector<Vec3> verts(nv);
-  for (int64_t v = 0; v < nv; ++v)
-    verts[v] = make_vec3(Vin[3 * v] - shift[0], Vin[3 * v + 1] - shift[1], Vin[3 * v + 2] - shift[2]);
-  std::vector<int32_t> faces(Fin, Fin + 3 * nf);
-  // Triangles in Morton order of their centroids: triangles that are near in
-  // space are near in memory, so the random lookups of propagation hit the cache.
-  std::vector<TriPre> tris(nf);
-  {
-    std::vector<std::pair<uint64_t, int32_t>> key(nf);
-    const double scale = 1023.0 / (h * double(std::max({G.nx, G.ny, G.nz})));
-    for (int64_t f = 0; f < nf; ++f) {
-      const Vec3 c = (1.0 / 3.0) * (verts[faces[3 * f]] + verts[faces[3 * f + 1]] + verts[faces[3 * f + 2]]);
-      const double q[3] = {(c.x - G.o[0]) * scale, (c.y - G.o[1]) * scale, (c.z - G.o[2]) * scale};
-      uint64_t code = 0;
-      for (int a = 0; a < 3; ++a) {
-        const uint64_t v = uint64_t(std::clamp(q[a], 0.0, 1023.0));
-        for (int b = 0; b < 10; ++b) code |= ((v >> b) & 1u) << (3 * b + a);
-      }
-      key[f] = {code, int32_t(f)};
-    }
-    std::sort(key.begin(), key.end());
-    for (int64_t f = 0; f < nf; ++f) {
-      const int32_t* g = &faces[3 * key[f].second];
-      tris[f] = make_tri(verts[g[0]], verts[g[1]], verts[g[2]]);
-    }
-  }
+// Phases 1 and 2 on the CPU: unsigned distances of every node into out.
+void cpu_distances(const Grid& G, const std::vector<TriPre>& tris, const std::vector<Vec3>& verts,
+                   const SdfBuildParams& P, int nt, SdfBuildStats& st, float* out) {
+  const double h = G.h;
+  const int64_t nf = int64_t(tris.size());
+  const int64_t N = G.nx * G.ny * G.nz;
 
   // Working state per node: distance and closest triangle packed in one word
   // (float bits high, triangle low). Distances are >= 0, so comparing packed
@@ -452,7 +310,7 @@ SdfBuildStats sdf_build(const double* Vin, int64_t nv, const int32_t* Fin, int64
         v.y > G.o[1] + h * double(G.ny - 1) || v.z > G.o[2] + h * double(G.nz - 1)) { mesh_inside = false; break; }
   }
   if (!mesh_inside) {
-    TriBvh bvh(tris);
+    const TriBvh bvh = build_tri_bvh(tris);
     int64_t seeded = 0;
 #pragma omp parallel for num_threads(nt) schedule(dynamic, 1) reduction(+ : seeded)
     for (int64_t k = 0; k < G.nz; ++k) {
@@ -468,7 +326,7 @@ SdfBuildStats sdf_build(const double* Vin, int64_t nv, const int32_t* Fin, int64
             best = double(unpack_d(cell[id])) * double(unpack_d(cell[id]));
             bt = unpack_t(cell[id]);
           }
-          bvh.nearest(G.node(i, j, k), best, bt);
+          bvh_nearest(bvh.nodes.data(), bvh.order.data(), tris.data(), G.node(i, j, k), best, bt);
           cell[id] = pack(float(std::sqrt(best)), bt);
           ++seeded;
         }
@@ -558,6 +416,85 @@ SdfBuildStats sdf_build(const double* Vin, int64_t nv, const int32_t* Fin, int64
 #pragma omp parallel for num_threads(nt) schedule(static)
   for (int64_t q = 0; q < N; ++q) out[q] = cell[q] == kEmpty ? kFar : unpack_d(cell[q]);
   std::vector<uint64_t>().swap(cell);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- build
+
+SdfBuildStats sdf_build(const double* Vin, int64_t nv, const int32_t* Fin, int64_t nf, const SdfLayout& L,
+                        const SdfBuildParams& P, float* out) {
+  const auto t_start = Clock::now();
+  SdfBuildStats st;
+  const int nt = P.threads > 0 ? P.threads : omp_get_max_threads();
+  st.threads = nt;
+  if (nf <= 0) throw std::invalid_argument("the mesh has no faces");
+  if (nv >= (int64_t(1) << 30)) throw std::invalid_argument("too many vertices (at most 2^30)");
+  for (int64_t v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a)
+      if (!std::isfinite(Vin[3 * v + a]))
+        throw std::invalid_argument("vertex " + std::to_string(v) + " has a non-finite coordinate");
+  for (int64_t f = 0; f < 3 * nf; ++f)
+    if (Fin[f] < 0 || Fin[f] >= nv)
+      throw std::invalid_argument("face " + std::to_string(f / 3) + " refers to vertex " + std::to_string(Fin[f]) +
+                                  " (the mesh has " + std::to_string(nv) + " vertices)");
+  if (L.dims[0] < 2 || L.dims[1] < 2 || L.dims[2] < 2) throw std::invalid_argument("grid needs at least 2 nodes per axis");
+  if (P.gpu && !P.gpu_distances)
+    throw std::invalid_argument("device cuda: this build has no CUDA backend for the SDF (it was built without nvcc)");
+
+  const double h = P.spacing;
+  // Work in a frame centred on the grid: smaller coordinates, smaller rounding.
+  double shift[3];
+  for (int a = 0; a < 3; ++a) shift[a] = L.origin[a] + 0.5 * h * double(L.dims[a] - 1);
+  Grid G{{L.origin[0] - shift[0], L.origin[1] - shift[1], L.origin[2] - shift[2]}, L.dims[0], L.dims[1], L.dims[2], h};
+
+  std::vector<Vec3> verts(nv);
+  for (int64_t v = 0; v < nv; ++v)
+    verts[v] = make_vec3(Vin[3 * v] - shift[0], Vin[3 * v + 1] - shift[1], Vin[3 * v + 2] - shift[2]);
+  std::vector<int32_t> faces(Fin, Fin + 3 * nf);
+  // Triangles in Morton order of their centroids: triangles that are near in
+  // space are near in memory, so the random lookups of propagation hit the cache.
+  std::vector<TriPre> tris(nf);
+  {
+    std::vector<std::pair<uint64_t, int32_t>> key(nf);
+    const double scale = 1023.0 / (h * double(std::max({G.nx, G.ny, G.nz})));
+    for (int64_t f = 0; f < nf; ++f) {
+      const Vec3 c = (1.0 / 3.0) * (verts[faces[3 * f]] + verts[faces[3 * f + 1]] + verts[faces[3 * f + 2]]);
+      const double q[3] = {(c.x - G.o[0]) * scale, (c.y - G.o[1]) * scale, (c.z - G.o[2]) * scale};
+      uint64_t code = 0;
+      for (int a = 0; a < 3; ++a) {
+        const uint64_t v = uint64_t(std::clamp(q[a], 0.0, 1023.0));
+        for (int b = 0; b < 10; ++b) code |= ((v >> b) & 1u) << (3 * b + a);
+      }
+      key[f] = {code, int32_t(f)};
+    }
+    std::sort(key.begin(), key.end());
+    for (int64_t f = 0; f < nf; ++f) {
+      const int32_t* g = &faces[3 * key[f].second];
+      tris[f] = make_tri(verts[g[0]], verts[g[1]], verts[g[2]]);
+    }
+  }
+
+  auto t0 = Clock::now();
+  if (P.gpu) {
+    // Exact nearest distances of every node on the GPU, from a BVH built here.
+    const TriBvh bvh = build_tri_bvh(tris);
+    SdfGpuInput in;
+    in.tris = tris.data();
+    in.n_tris = nf;
+    in.nodes = bvh.nodes.data();
+    in.n_nodes = int64_t(bvh.nodes.size());
+    in.order = bvh.order.data();
+    for (int a = 0; a < 3; ++a) in.origin[a] = G.o[a];
+    in.spacing = h;
+    in.dims[0] = G.nx;
+    in.dims[1] = G.ny;
+    in.dims[2] = G.nz;
+    P.gpu_distances(in, out);
+    st.seconds_gpu = seconds_since(t0);
+  } else {
+    cpu_distances(G, tris, verts, P, nt, st, out);
+  }
 
   // ---- 3. sign: winding numbers along x lines
   t0 = Clock::now();

@@ -16,11 +16,35 @@
 //      cannot change the inside test w > 1/2).
 // All phases are parallel with OpenMP and need no Python, and the result is the
 // same bits for any thread count (no phase depends on thread timing).
+//
+// On a GPU (params.gpu), phases 1 and 2 are replaced by the exact nearest-triangle
+// distance of every node (a BVH query per node, native/cuda/sdf_gpu.cu); phase 3 is
+// the same. Those values are exact everywhere, so they can be below the CPU's
+// propagated ones (never above).
 #pragma once
 #include <cstdint>
 #include <string>
 
 namespace seamfit::body {
+
+struct TriPre;
+struct BvhNode;
+
+// What the GPU distance pass needs: triangles (grid-centred frame), the BVH over
+// them and the grid in the same frame.
+struct SdfGpuInput {
+  const TriPre* tris = nullptr;
+  int64_t n_tris = 0;
+  const BvhNode* nodes = nullptr;
+  int64_t n_nodes = 0;
+  const int32_t* order = nullptr;  // BVH leaf slots -> triangle indices (n_tris)
+  double origin[3] = {0, 0, 0};
+  double spacing = 0;
+  int64_t dims[3] = {0, 0, 0};
+};
+// Fills out[nodes] with unsigned distances float(sqrt(d2)). The core does not link
+// CUDA: a build with the CUDA backend passes its implementation in the params.
+using SdfGpuDistancesFn = void (*)(const SdfGpuInput& in, float* out);
 
 struct SdfBuildParams {
   double spacing = 0.0025;   // node spacing h (metres)
@@ -31,6 +55,8 @@ struct SdfBuildParams {
   double band = 1.5;         // half-width of the exact band, in cells
   int rounds = 1;            // propagation rounds (one upward and one downward pass each)
   int threads = 0;           // 0: OpenMP default
+  bool gpu = false;          // exact distances on a GPU through gpu_distances (band and rounds unused)
+  SdfGpuDistancesFn gpu_distances = nullptr;
 };
 
 struct SdfLayout {
@@ -41,6 +67,7 @@ struct SdfLayout {
 
 struct SdfBuildStats {
   double seconds_total = 0, seconds_band = 0, seconds_seed = 0, seconds_propagate = 0, seconds_sign = 0;
+  double seconds_gpu = 0;             // GPU build: BVH, upload, distances, download
   int64_t band_evaluations = 0;       // point-triangle distances in the band
   int64_t propagate_evaluations = 0;  // point-triangle distances during propagation
   int64_t seeded_nodes = 0;           // border nodes seeded by exact queries (bounds mode)
@@ -58,7 +85,7 @@ SdfLayout sdf_layout(const double* vertices, int64_t n_vertices, const SdfBuildP
 // Fills out[nodes] (index i + nx*(j + ny*k)) with signed distances: negative inside.
 // vertices: n_vertices x 3 doubles; faces: n_faces x 3 indices. Throws
 // std::invalid_argument naming the face or vertex for out-of-range indices or
-// non-finite coordinates.
+// non-finite coordinates, or for params.gpu without gpu_distances.
 SdfBuildStats sdf_build(const double* vertices, int64_t n_vertices, const int32_t* faces, int64_t n_faces,
                         const SdfLayout& layout, const SdfBuildParams& params, float* out);
 

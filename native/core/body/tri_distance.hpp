@@ -6,14 +6,22 @@
 // float is good to ~0.1 micrometre for a body-sized mesh); the arithmetic is in
 // double. The query walks the Voronoi regions of vertices, edges and face.
 // Degenerate triangles (zero area) fall back to their edges, so a sliver never
-// divides by zero.
+// divides by zero. The queries are host-device (the GPU field build uses them);
+// make_tri runs on the host only.
 #pragma once
 #include <algorithm>
 #include <cmath>
 
+#include "common/hd.hpp"
 #include "common/vec3.hpp"
 
 namespace seamfit::body {
+
+// std::min / std::max / std::clamp with their exact semantics (same result, same
+// argument on ties), usable in device code.
+SF_HD double hd_min(double a, double b) { return b < a ? b : a; }
+SF_HD double hd_max(double a, double b) { return a < b ? b : a; }
+SF_HD double hd_clamp(double v, double lo, double hi) { return v < lo ? lo : (hi < v ? hi : v); }
 
 struct alignas(64) TriPre {
   float a[3], b[3], c[3];
@@ -23,7 +31,7 @@ struct alignas(64) TriPre {
   int degenerate;
 };
 
-inline Vec3 tri_vec(const float* v) { return make_vec3(v[0], v[1], v[2]); }
+SF_HD Vec3 tri_vec(const float* v) { return make_vec3(v[0], v[1], v[2]); }
 
 inline TriPre make_tri(Vec3 a, Vec3 b, Vec3 c) {
   TriPre t;
@@ -49,17 +57,17 @@ inline TriPre make_tri(Vec3 a, Vec3 b, Vec3 c) {
   return t;
 }
 
-inline double seg_dist2(Vec3 p, Vec3 a, Vec3 b) {
+SF_HD double seg_dist2(Vec3 p, Vec3 a, Vec3 b) {
   Vec3 ab = b - a, ap = p - a;
   double l2 = norm2(ab);
-  double s = l2 > 0 ? std::clamp(dot(ap, ab) / l2, 0.0, 1.0) : 0.0;
+  double s = l2 > 0 ? hd_clamp(dot(ap, ab) / l2, 0.0, 1.0) : 0.0;
   return norm2(ap - s * ab);
 }
 
 // Squared distance from p to triangle t.
-inline double tri_dist2(const TriPre& t, Vec3 p) {
+SF_HD double tri_dist2(const TriPre& t, Vec3 p) {
   const Vec3 A = tri_vec(t.a), B = tri_vec(t.b), C = tri_vec(t.c);
-  if (t.degenerate) return std::min(seg_dist2(p, A, B), std::min(seg_dist2(p, B, C), seg_dist2(p, C, A)));
+  if (t.degenerate) return hd_min(seg_dist2(p, A, B), hd_min(seg_dist2(p, B, C), seg_dist2(p, C, A)));
   const Vec3 ab = B - A, ac = C - A;
   const Vec3 ap = p - A;
   const double d1 = dot(ab, ap), d2 = dot(ac, ap);
@@ -91,10 +99,10 @@ inline double tri_dist2(const TriPre& t, Vec3 p) {
 }
 
 // Lower bound on the distance from p to t (plane and bounding sphere), or 0.
-inline double tri_lower_bound(const TriPre& t, Vec3 p) {
-  const double pl = std::fabs(dot(p - tri_vec(t.a), tri_vec(t.n)));
+SF_HD double tri_lower_bound(const TriPre& t, Vec3 p) {
+  const double pl = fabs(dot(p - tri_vec(t.a), tri_vec(t.n)));
   const double sp = norm(p - tri_vec(t.centre)) - double(t.radius);
-  return std::max(pl, sp);
+  return hd_max(pl, sp);
 }
 
 }  // namespace seamfit::body

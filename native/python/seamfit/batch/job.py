@@ -83,7 +83,7 @@ def prepare_base(argv: list[str]) -> int:
         print("seamfit batch: the base field is cut to the garment: each job builds its own", file=sys.stderr)
         return 0
     device = choose_device(settings.device, problem_size=int(mesh.n_vertices))["device"]
-    sdf, _ = body_field(body, settings.sdf_spacing, "body")
+    sdf, _ = body_field(body, settings.sdf_spacing, "body", device=device)
     _, info = base_drape(mesh, pattern, body, sdf, Fabric(), replace(SimSettings(), device=device))
     drape = "from the cache" if info.get("cached") else f"{info.get('seconds', 0.0):.1f} s"
     print(f"seamfit batch: base ready: {mesh.n_vertices} vertices, drape {drape}", file=sys.stderr)

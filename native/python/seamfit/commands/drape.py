@@ -148,14 +148,15 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -
     mesh = build_sewn_mesh(pattern, args.edge_length)
     say(f"mesh: {mesh.n_vertices} vertices, {len(mesh.triangles)} triangles, "
         f"{len(mesh.sewing_pairs)} sewing pairs")
+    # On the GPU, Newton's steps are solved by MINRES there (docs/gpu.md), and the body's
+    # field is built there too.
+    device_choice = choose_device(args.device, problem_size=int(mesh.n_vertices))
+    device = device_choice["device"]
     stage("body fields")
-    sdf = build_sdf(body, spacing=args.sdf_spacing)
+    sdf = build_sdf(body, spacing=args.sdf_spacing, device=device)
     say(f"body SDF: {'x'.join(str(d) for d in sdf.values.shape[::-1])} nodes at {sdf.spacing * 1000:g} mm")
     fabric = Fabric(stretch_stiffness=args.stretch_stiffness, sewing_stiffness=args.sewing_stiffness,
                     bending_stiffness=args.bending_stiffness, density=args.density)
-    # On the GPU, Newton's steps are solved by MINRES there (docs/gpu.md).
-    device_choice = choose_device(args.device, problem_size=int(mesh.n_vertices))
-    device = device_choice["device"]
     settings = SimSettings(method=args.method, tolerance=args.tolerance, mu=args.mu,
                            max_seconds=args.max_seconds, polish=not args.no_polish, device=device)
     if args.max_iterations is not None:

@@ -170,9 +170,10 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     target_region = resolve_sdf_region(region, target_body, settings.sdf_spacing)
     base_sdf, base_field = once("base_field", lambda: body_field(
         base_body, settings.sdf_spacing, base_region, margin=margin,
-        z_range=placement_z_range(mesh, base_pattern, base_body) if base_region == "garment" else None))
+        z_range=placement_z_range(mesh, base_pattern, base_body) if base_region == "garment" else None,
+        device=device))
     if target_region == "body":
-        target_sdf, target_field = body_field(target_body, settings.sdf_spacing, "body")
+        target_sdf, target_field = body_field(target_body, settings.sdf_spacing, "body", device=device)
     else:
         check_body(target_body)  # fail before the base drape, as the whole-body build would
 
@@ -198,7 +199,8 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         # starts from it and its positional cost pulls the drape towards it.
         tell(stage="sdf")
         target_sdf, target_field = body_field(target_body, settings.sdf_spacing, "garment", margin=margin,
-                                              z_range=(float(xtilde[:, 2].min()), float(xtilde[:, 2].max())))
+                                              z_range=(float(xtilde[:, 2].min()), float(xtilde[:, 2].max())),
+                                              device=device)
 
     param = Parametrization(mesh)
     if device == "cuda":

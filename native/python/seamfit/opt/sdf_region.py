@@ -90,14 +90,16 @@ def placement_z_range(mesh, pattern, body) -> tuple[float, float]:
     return float(z.min()), float(z.max())
 
 
-def body_field(body, spacing: float, region: str, *, z_range=None, margin: float = GARMENT_REGION_MARGIN):
+def body_field(body, spacing: float, region: str, *, z_range=None, margin: float = GARMENT_REGION_MARGIN,
+               device: str = "cpu"):
     """The body's SDF over its whole box ("body") or cut to z_range +- margin ("garment"),
-    and its report entry (region, bounds, node counts)."""
+    and its report entry (region, bounds, node counts). ``device``: where the field is
+    built ("cpu" or "cuda", see seamfit.body.build_sdf)."""
     from ..body import build_sdf
     origin, dims = whole_body_layout(body, spacing)
     whole_hi = origin + float(spacing) * (np.asarray(dims) - 1)
     bounds = garment_bounds(body, spacing, z_range, margin) if region == "garment" else None
-    sdf = build_sdf(body, spacing=spacing, bounds=bounds)
+    sdf = build_sdf(body, spacing=spacing, bounds=bounds, device=device)
     lo, hi = sdf.bounds
     info = {"region": region, "body": getattr(body, "name", None) or getattr(body, "where", "body"),
             "spacing_m": float(sdf.spacing), "dims": list(sdf.dims), "nodes": int(sdf.values.size),

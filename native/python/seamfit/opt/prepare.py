@@ -40,8 +40,12 @@ def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, 
     # The device is not an input of the physics: a drape made on the GPU serves the CPU too.
     physics = {k: v for k, v in asdict(settings).items() if k != "device"}
     # -3: a drape the GPU made before it followed the CPU's solver rules may sit elsewhere.
+    # A field built on the GPU holds exact nearest distances, the CPU's propagated ones differ
+    # by a fraction of a millimetre at a few nodes: a drape keeps to the field it settled on
+    # (the CPU's key is the same as before the GPU build existed).
+    field = (sdf.info.get("device"),) if sdf.info.get("device") == "cuda" else ()
     key = content_key("base-drape-3", mesh.cache_key(), body.vertices, body.faces, float(sdf.spacing),
-                      asdict(fabric), physics)
+                      asdict(fabric), physics, *field)
     hit = None if refresh else load_arrays("drape", key, expect={"x": mesh.x0.shape})
     if hit is not None and hit["x"].shape == mesh.x0.shape:
         return hit["x"], {"cached": True, "key": key, **{k: float(hit[k]) for k in ("residual", "seconds")}}

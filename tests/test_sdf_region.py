@@ -201,3 +201,29 @@ def test_grade_on_cropped_fields(tmp_path):
         assert f["nodes"] == int(np.prod(f["dims"]))
         assert f["max_outside_mm"] == 0.0
     assert rep["drape"]["min_phi_mm"] > -5
+
+
+def test_a_gpu_that_cannot_build_the_field_hands_it_to_the_cpu(monkeypatch):
+    """A GPU short of memory (other gradings share it) must not fail the grading: the field
+    is built on the CPU, the same bits as a CPU build, and the report entry says so."""
+    from seamfit.errors import DeviceError
+    import seamfit.body as body_pkg
+    real = body_pkg.build_sdf
+    asked = []
+
+    def gpu_out_of_memory(body, *, device="cpu", **kw):
+        asked.append(device)
+        if device == "cuda":
+            raise DeviceError("the SDF of 1000 nodes needs 9 MiB of GPU memory, 1 MiB are free")
+        return real(body, device=device, **kw)
+
+    monkeypatch.setattr(body_pkg, "build_sdf", gpu_out_of_memory)
+    body = load_body(B0)
+    sdf, info = reg.body_field(body, 0.02, "body", device="cuda")
+    assert asked == ["cuda", "cpu"]
+    assert info["built_on"] == "cpu" and "GPU memory" in info["device_note"]
+    assert np.array_equal(sdf.values, real(body, spacing=0.02).values)
+    # on the CPU nothing is handed on: its errors are the caller's
+    monkeypatch.setattr(body_pkg, "build_sdf", lambda *a, **k: (_ for _ in ()).throw(DeviceError("x")))
+    with pytest.raises(DeviceError):
+        reg.body_field(body, 0.02, "body", device="cpu")

@@ -128,10 +128,10 @@ def run(args) -> int:
 
 def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -> int:
     """Mesh, dress and settle; write the set into ``tmp`` (moved to ``out`` afterwards)."""
-    from ..body import build_sdf
     from ..device import choose_device
     from ..fileio import atomic_write_text
     from ..mesh import build_sewn_mesh, write_obj
+    from ..opt.sdf_region import body_field
     from ..sim import Fabric, SimSettings, Simulator
     from ..sim.dressing import initial_positions
     from ..sim.multilevel import drape_coarse_to_fine
@@ -153,8 +153,9 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -
     device_choice = choose_device(args.device, problem_size=int(mesh.n_vertices))
     device = device_choice["device"]
     stage("body fields")
-    sdf = build_sdf(body, spacing=args.sdf_spacing, device=device)
-    say(f"body SDF: {'x'.join(str(d) for d in sdf.values.shape[::-1])} nodes at {sdf.spacing * 1000:g} mm")
+    sdf, field = body_field(body, args.sdf_spacing, "body", device=device)
+    say(f"body SDF: {'x'.join(str(d) for d in sdf.values.shape[::-1])} nodes at {sdf.spacing * 1000:g} mm"
+        + (f" ({field['device_note']})" if field.get("device_note") else ""))
     fabric = Fabric(stretch_stiffness=args.stretch_stiffness, sewing_stiffness=args.sewing_stiffness,
                     bending_stiffness=args.bending_stiffness, density=args.density)
     settings = SimSettings(method=args.method, tolerance=args.tolerance, mu=args.mu,

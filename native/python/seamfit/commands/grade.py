@@ -306,6 +306,10 @@ def write_graded(args, result, progress, base_pattern, base_body, target_body, t
         progress.close()
     if (report.get("sdf") or {}).get("warning"):  # even with -q: collisions may have been missed
         print(f"seamfit grade: warning: {report['sdf']['warning']}", file=sys.stderr)
+    for which in ("base", "target"):   # a body field the GPU handed to the CPU (slower, not wrong)
+        note = ((report.get("sdf") or {}).get(which) or {}).get("device_note")
+        if note and not args.quiet:
+            print(f"seamfit grade: note: the {which} body's field was {note}", file=sys.stderr)
     if not args.quiet:
         r = report
         print(f"{r['method']}: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} "

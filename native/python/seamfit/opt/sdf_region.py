@@ -94,17 +94,29 @@ def body_field(body, spacing: float, region: str, *, z_range=None, margin: float
                device: str = "cpu"):
     """The body's SDF over its whole box ("body") or cut to z_range +- margin ("garment"),
     and its report entry (region, bounds, node counts). ``device``: where the field is
-    built ("cpu" or "cuda", see seamfit.body.build_sdf)."""
+    built ("cpu" or "cuda", see seamfit.body.build_sdf). A GPU that cannot build it (short
+    of memory while other gradings share it, say) hands it to the CPU: the grading goes on,
+    and the entry's "built_on" and "device_note" say so."""
     from ..body import build_sdf
+    from ..errors import DeviceError
     origin, dims = whole_body_layout(body, spacing)
     whole_hi = origin + float(spacing) * (np.asarray(dims) - 1)
     bounds = garment_bounds(body, spacing, z_range, margin) if region == "garment" else None
-    sdf = build_sdf(body, spacing=spacing, bounds=bounds, device=device)
+    built_on, note = device, None
+    try:
+        sdf = build_sdf(body, spacing=spacing, bounds=bounds, device=device)
+    except DeviceError as exc:
+        if device != "cuda":
+            raise
+        built_on, note = "cpu", f"built on the CPU: {exc}"
+        sdf = build_sdf(body, spacing=spacing, bounds=bounds, device="cpu")
     lo, hi = sdf.bounds
     info = {"region": region, "body": getattr(body, "name", None) or getattr(body, "where", "body"),
             "spacing_m": float(sdf.spacing), "dims": list(sdf.dims), "nodes": int(sdf.values.size),
             "whole_body_nodes": int(np.prod(dims, dtype=np.int64)), "bounds": [*lo.tolist(), *hi.tolist()],
-            "whole_body_bounds": [*origin.tolist(), *whole_hi.tolist()]}
+            "whole_body_bounds": [*origin.tolist(), *whole_hi.tolist()], "built_on": built_on}
+    if note:
+        info["device_note"] = note
     if region == "garment":
         info.update(garment_z=[float(z_range[0]), float(z_range[1])], margin_m=float(margin))
     return sdf, info

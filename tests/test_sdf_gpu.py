@@ -153,3 +153,35 @@ def test_cpu_cache_key_unchanged_and_unknown_device_refused():
         build_sdf(body, spacing=0.02, device="gpu")
     with pytest.raises(ValueError, match="unknown device"):
         core().sdf_build(V, F.astype(np.int32), spacing=0.02, device="gpu")
+
+
+def test_a_base_drape_keeps_to_the_builder_of_its_field(monkeypatch):
+    """The base drape's cache key: the same as before for a CPU-built field (its cached
+    drapes stay valid), its own for a GPU-built one (a drape settled on one field is not
+    served for the other)."""
+    from seamfit.mesh import build_sewn_mesh
+    from seamfit.opt import prepare as prep
+    from seamfit.pattern import load_pattern
+    from seamfit.sim import Fabric, SimSettings
+    samples = BODIES.parent
+    pattern = load_pattern(samples / "patterns/gc_pencil_skirt/size06/pattern.json")
+    mesh = build_sewn_mesh(pattern, edge_length_cm=6.0)
+    body = load_body(BODIES / "women_size06.obj")
+    keys = []
+
+    def hit(kind, key, expect=None):   # a cache hit: no drape is run
+        keys.append(key)
+        return {"x": mesh.x0.copy(), "residual": np.float64(0), "seconds": np.float64(0)}
+
+    monkeypatch.setattr(prep, "load_arrays", hit)
+    settings, fabric = SimSettings(), Fabric()
+    cpu_field = build_sdf(body, spacing=0.02)
+    gpu_like = sdf_mod.SignedDistanceField(cpu_field.values, cpu_field.origin, cpu_field.spacing,
+                                           {**cpu_field.info, "device": "cuda"})
+    for sdf in (cpu_field, gpu_like):
+        prep.base_drape(mesh, pattern, body, sdf, fabric, settings)
+    from dataclasses import asdict
+    physics = {k: v for k, v in asdict(settings).items() if k != "device"}
+    before = prep.content_key("base-drape-3", mesh.cache_key(), body.vertices, body.faces, 0.02,
+                              asdict(fabric), physics)
+    assert keys[0] == before and keys[1] != before

@@ -111,6 +111,9 @@ def run(args) -> int:
     # the checks of seamfit validate and the size limits, before any meshing or SDF
     pattern = checked_pattern(args.pattern, args.edge_length, warn)
     body = checked_body(args.body, warn)
+    if not args.no_picture:   # matplotlib loads while the body fields are built (seamfit.preload)
+        from .. import preload
+        preload.want("matplotlib.pyplot")
     # Named stages, the share done and the time left: a bar on a terminal, plain lines in
     # a log (seamfit.progress); -q: none.
     from ..progress import ConsoleProgress, for_drape

@@ -148,6 +148,9 @@ def run(args) -> int:
     target_body = checked_body(args.target_body, warn)
     target_body, registration = _registered_target(args, base_body, target_body)
     settings = settings_from_args(args, base_pattern)
+    if not args.no_picture:   # matplotlib loads while the body fields are built (seamfit.preload)
+        from .. import preload
+        preload.want("matplotlib.pyplot")
     # Named stages, the share done and the time left: a bar on a terminal, plain lines in
     # a log (seamfit.progress); -q: none.
     from ..progress import ConsoleProgress, for_grading

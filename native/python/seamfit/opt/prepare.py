@@ -10,6 +10,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from .. import preload
 from ..cache import cache_root, content_key, load_arrays, save_arrays
 from ..device import choose_device
 from ..errors import SolveError
@@ -157,6 +158,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         return shared[key]
 
     check_pattern(base_pattern)
+    preload.want("scipy.optimize")      # the curve refit, at the end (seamfit.preload)
     tell(stage="mesh")
     mesh = once("mesh", lambda: build_sewn_mesh(base_pattern, edge_length_cm=settings.edge_length_cm))
     # Where the simulations and the adjoint solve run: auto takes the device this machine

@@ -103,6 +103,9 @@ def body_field(body, spacing: float, region: str, *, z_range=None, margin: float
     whole_hi = origin + float(spacing) * (np.asarray(dims) - 1)
     bounds = garment_bounds(body, spacing, z_range, margin) if region == "garment" else None
     built_on, note = device, None
+    # The build releases the GIL: what the run imports at its end loads meanwhile.
+    from .. import preload
+    preload.start()
     try:
         sdf = build_sdf(body, spacing=spacing, bounds=bounds, device=device)
     except DeviceError as exc:

@@ -25,7 +25,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..errors import PatternError
 from . import curves
@@ -173,6 +172,7 @@ def _polish(deg: int, pts: np.ndarray, cp: np.ndarray, t: np.ndarray) -> tuple[n
         j[2 * rows + 1, 2 * k + rows] = d1[:, 1]
         return j
 
+    from scipy.optimize import least_squares   # here: importing seamfit.pattern stays light (0.5 s)
     x0 = np.concatenate([cp[1:-1].ravel(), t[1:-1]])
     cost0 = float(np.sum(resid(x0) ** 2))
     sol = least_squares(resid, x0, jac=jac, method="lm", x_scale="jac", xtol=1e-10, ftol=1e-10,
@@ -251,6 +251,8 @@ def _fit_arc(pts: np.ndarray, base: Edge) -> dict:
     s0 = float(np.dot(c_b - 0.5 * (bp0 + bp1), bn)) * (h / bh if bh > 0 else 1.0)
     inner = pts[1:-1]
     if len(inner):
+        from scipy.optimize import least_squares
+
         def resid(x):
             c = mid + x[0] * nrm
             return np.linalg.norm(inner - c, axis=1) - math.hypot(h, x[0])

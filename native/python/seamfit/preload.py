@@ -1,0 +1,56 @@
+"""Importing, while the GIL is free, what a run needs only at its end.
+
+A cold grading spends about a second building the body fields in compiled code that
+releases the GIL, while scipy.optimize (the curve refit) and matplotlib (the pictures)
+take 0.5-1 s to import and are needed only after the search. ``want`` names such modules;
+``start``, called as the body fields begin, imports them on one background thread. An
+import that fails there is left to fail where the module is used, with its own message;
+the interpreter waits for the thread before it exits.
+"""
+from __future__ import annotations
+
+import atexit
+import importlib
+import sys
+import threading
+
+__all__ = ["want", "start"]
+
+_wanted: list[str] = []
+_thread: threading.Thread | None = None
+
+
+def want(*names: str) -> None:
+    """Modules this run will import later (loaded by the next ``start``)."""
+    for n in names:
+        if n not in _wanted:
+            _wanted.append(n)
+
+
+def start(*names: str) -> None:
+    """Import the wanted modules (and ``names``) on a background thread, once."""
+    global _thread
+    want(*names)
+    todo = [n for n in _wanted if n not in sys.modules]
+    if not todo or (_thread is not None and _thread.is_alive()):
+        return
+    _thread = threading.Thread(target=_load, args=(todo,), name="seamfit-preload", daemon=True)
+    _thread.start()
+
+
+def _load(names: list[str]) -> None:
+    for n in names:
+        try:
+            if n == "matplotlib.pyplot":
+                import matplotlib
+                matplotlib.use("Agg")   # as the renderers do: no GUI backend is chosen
+            importlib.import_module(n)
+        except Exception:   # noqa: BLE001 - it fails again, and says why, where it is used
+            pass
+
+
+@atexit.register
+def _join() -> None:
+    # An import cut off by the interpreter's shutdown can crash it.
+    if _thread is not None:
+        _thread.join(timeout=30)

@@ -20,40 +20,13 @@ from seamfit.body import sdf as sdf_mod
 from seamfit.errors import DeviceError
 
 from sim_helpers import fresh_sdf_cache  # noqa: F401 (a fixture)
-from test_sdf import box_mesh, icosphere
+from test_sdf import box_mesh, brute_distance, icosphere
 
 GPU = bool(getattr(core(), "built_with_cuda", False)) and core().cuda_device_count() > 0
 BODIES = Path(__file__).resolve().parents[1] / "sample_files" / "bodies"
 PROPAGATED_TOL = 5e-4  # metres: the CPU's propagated values against exact ones at 2.5 mm
 
 pytestmark = pytest.mark.usefixtures("fresh_sdf_cache")
-
-
-def exact_distances(P, V, F, chunk=256):
-    """Exact unsigned distance from each point of P to the triangles (V, F): every
-    triangle, the closest point by Voronoi regions (face, three edges)."""
-    A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-    AB, AC, BC = B - A, C - A, C - B
-    N = np.cross(AB, AC)
-    N /= np.linalg.norm(N, axis=1)[:, None]
-    d00, d01, d11 = (AB * AB).sum(1), (AB * AC).sum(1), (AC * AC).sum(1)
-    den = d00 * d11 - d01 * d01
-    out = np.empty(len(P))
-    for s in range(0, len(P), chunk):
-        p = P[s:s + chunk, None, :]
-        ap = p - A
-        h = (ap * N).sum(-1)
-        q = ap - h[..., None] * N
-        d20, d21 = (q * AB).sum(-1), (q * AC).sum(-1)
-        v = (d11 * d20 - d01 * d21) / den
-        w = (d00 * d21 - d01 * d20) / den
-        best = np.where((v >= 0) & (w >= 0) & (v + w <= 1), np.abs(h), np.inf)
-        for X, E in ((A, AB), (A, AC), (B, BC)):
-            xp = p - X
-            t = np.clip((xp * E).sum(-1) / (E * E).sum(1), 0, 1)
-            best = np.minimum(best, np.linalg.norm(xp - t[..., None] * E, axis=-1))
-        out[s:s + chunk] = best.min(axis=1)
-    return out
 
 
 def all_nodes(sdf):
@@ -82,7 +55,7 @@ if GPU:
         assert gpu.info["device"] == "cuda" and cpu.info["device"] == "cpu"
         assert gpu.info["seconds_gpu"] > 0 and gpu.info["propagate_evaluations"] == 0
         assert np.array_equal(gpu.origin, cpu.origin) and gpu.dims == cpu.dims
-        exact = exact_distances(all_nodes(gpu), body.vertices, body.faces)
+        exact = brute_distance(all_nodes(gpu), body.vertices, body.faces)
         got = np.abs(gpu.values.ravel().astype(np.float64))
         # float32 values of float-rounded vertices in a grid-centred frame
         assert np.max(np.abs(got - exact)) <= 1e-6
@@ -112,7 +85,7 @@ if GPU:
         rng = np.random.default_rng(5)
         pick = rng.choice(g.size, 400, replace=False)
         P = all_nodes(gpu)[pick]
-        exact = exact_distances(P, body.vertices, body.faces, chunk=8)
+        exact = brute_distance(P, body.vertices, body.faces)
         assert np.max(np.abs(np.abs(g.ravel()[pick]) - exact)) <= 1e-6
 
     def test_gpu_field_has_its_own_cache_entry(tmp_path):

@@ -8,7 +8,8 @@ from typing import Optional
 
 import numpy as np
 
-from ..errors import SolveError
+from .. import preload
+from ..errors import DeviceError, SolveError
 
 SDF_REGIONS = ("auto", "body", "garment")
 # How far (m) above and below the garment's height band a cropped body field reaches. The
@@ -98,13 +99,11 @@ def body_field(body, spacing: float, region: str, *, z_range=None, margin: float
     of memory while other gradings share it, say) hands it to the CPU: the grading goes on,
     and the entry's "built_on" and "device_note" say so."""
     from ..body import build_sdf
-    from ..errors import DeviceError
     origin, dims = whole_body_layout(body, spacing)
     whole_hi = origin + float(spacing) * (np.asarray(dims) - 1)
     bounds = garment_bounds(body, spacing, z_range, margin) if region == "garment" else None
     built_on, note = device, None
     # The build releases the GIL: what the run imports at its end loads meanwhile.
-    from .. import preload
     preload.start()
     try:
         sdf = build_sdf(body, spacing=spacing, bounds=bounds, device=device)

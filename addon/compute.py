@@ -734,9 +734,11 @@ def grade_output(inp: RunInputs, res) -> GradeOutput:
     g.stretch = stretch_ratio_per_vertex(res.uv_cm, res.x, res.mesh.triangles)
     r = res.report
     ease = (r.get("ease_cm") or {}).get("result") or {}
+    # A fine mesh graded coarse-to-fine with no search of its own: the search was the coarse level's.
+    searched = r["coarse_level"] if r.get("coarse_level") and not r.get("outer_iterations_done") else r
     return GradeOutput(
         pattern_json=pattern_to_json(graded), base_pattern_json=inp.pattern_json, garment=g,
-        objective=float(r["objective_final"]), iterations=int(r["outer_iterations"]),
+        objective=float(searched["objective_final"]), iterations=int(searched["outer_iterations"]),
         converged=bool(r["converged"]), method=str(r.get("method", inp.method)), message=str(r["message"]),
         fit={k: float(v) for k, v in ease.items() if v is not None}, report=r, result=res,
         base_name=inp.base.name, target_name=inp.target.name, target_body=body_object(inp.target),

@@ -32,7 +32,7 @@ def _grade(out, *extra):
 def test_fail_unconverged_exits_1_with_the_results_written(tmp_path):
     out = tmp_path / "out"
     code = main(["grade", str(PATTERN), "--base-body", str(B0), "--target-body", str(B1), "--out", str(out),
-                 "--edge-length", "5", "--sdf-spacing", "0.01", "--max-iterations", "2", "--checkpoint-every", "1",
+                 "--edge-length", "5", "--sdf-spacing", "0.01", "--max-iterations", "1", "--checkpoint-every", "1",
                  "--no-picture", "-q", "--fail-unconverged"])
     rep = json.loads((out / "report.json").read_text())
     assert not rep["converged"] and code == 1

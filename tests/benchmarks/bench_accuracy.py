@@ -78,7 +78,8 @@ def grade_kwargs(args, garment: str) -> dict:
     for opt, field in (("edge_length", "edge_length_cm"), ("sdf_spacing", "sdf_spacing"),
                        ("max_iterations", "max_outer_iterations"), ("checkpoint_every", "checkpoint_every"),
                        ("inner_iterations", "inner_iterations"), ("time_budget", "time_budget_s"),
-                       ("device", "device")):
+                       ("device", "device"), ("coarse_edge_length", "coarse_edge_length_cm"),
+                       ("fine_iterations", "fine_outer_iterations")):
         v = getattr(args, opt, None)
         if v is not None:
             kw[field] = v
@@ -285,6 +286,10 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--sdf-spacing", type=float, default=None, help="SDF spacing m (default: GradeSettings)")
     r.add_argument("--max-iterations", type=int, default=None, help="outer iterations (default: GradeSettings)")
     r.add_argument("--checkpoint-every", type=int, default=None)
+    r.add_argument("--coarse-edge-length", type=float, default=None,
+                   help="coarse-to-fine: grade a finer mesh at this edge (cm) first; 0 off (default: GradeSettings)")
+    r.add_argument("--fine-iterations", type=int, default=None,
+                   help="coarse-to-fine: outer iterations on the finer mesh (default: GradeSettings)")
     r.add_argument("--inner-iterations", type=int, default=None)
     r.add_argument("--seam", type=float, default=None, help="seam-length strength (default: the preset's)")
     r.add_argument("--start", default=None, help="theta^(0) and anchor: base | level (default: GradeSettings)")

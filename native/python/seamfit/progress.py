@@ -40,8 +40,9 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 # The stages of a grading, in order, as they are named to the user.
-STAGES = ("meshing", "body fields", "base drape", "transfer", "level scaling", "initial drapes", "optimizing",
-          "refit", "writing")
+# "coarse grading" only where a fine mesh is graded coarse-to-fine (seamfit.opt.coarse_start).
+STAGES = ("coarse grading", "meshing", "body fields", "base drape", "transfer", "level scaling", "initial drapes",
+          "optimizing", "refit", "writing")
 
 # The stages of ``seamfit drape``.
 DRAPE_STAGES = ("meshing", "body fields", "drape", "writing")
@@ -50,7 +51,8 @@ DRAPE_STAGES = ("meshing", "body fields", "drape", "writing")
 # inside them) to the stages above. Unknown names are shown as they are and their time
 # counts towards the stage in progress.
 EVENT_STAGES = {
-    "mesh": "meshing", "sdf": "body fields", "base drape": "base drape", "transfer": "transfer",
+    "coarse grading": "coarse grading", "mesh": "meshing", "sdf": "body fields", "base drape": "base drape",
+    "transfer": "transfer",
     "level scaling": "level scaling", "base pattern on target": "initial drapes",
     "level-scaled start": "initial drapes", "initialize": "initial drapes", "initial drape": "initial drapes",
     "optimize": "optimizing", "checkpoint": "optimizing", "fixed point": "optimizing",
@@ -161,18 +163,38 @@ def plan_grading(settings=None, n_vertices: int | None = None, *, pattern=None, 
     if n_vertices is None:
         n_vertices = estimate_vertices(pattern, settings.edge_length_cm) if pattern is not None else 3000
     n = int(n_vertices)
+    coarse_seconds = 0.0
+    from .opt.coarse_start import coarse_edge_for
+    coarse_edge = coarse_edge_for(settings)
+    if coarse_edge:
+        # Coarse-to-fine (seamfit.opt.coarse_start): the whole grading at the coarse edge,
+        # then this mesh's stages with its short search.
+        from dataclasses import replace
+        coarse = replace(settings, edge_length_cm=coarse_edge, coarse_edge_length_cm=0.0)
+        scale = (float(settings.edge_length_cm) / coarse_edge) ** 2
+        coarse_seconds = sum(plan_grading(coarse, max(int(n * scale), 10), device=device,
+                                          tolerance=tolerance).seconds.values())
+        settings = replace(settings, max_outer_iterations=min(settings.max_outer_iterations,
+                                                              settings.fine_outer_iterations))
     dev = device or getattr(settings, "device", "cpu")
     dev = "cuda" if dev == "cuda" else "cpu"
     spacing = max(float(getattr(settings, "sdf_spacing", 0.0025)), 1e-4)
     nodes = 2 * _FIELD_NODES_AT_5MM * (0.005 / spacing) ** 3
-    seconds = {"meshing": _cost("meshing", n, dev), "body fields": _FIELD_SECONDS_PER_MNODE * nodes / 1e6,
+    seconds = {**({"coarse grading": coarse_seconds} if coarse_seconds else {}), "meshing": _cost("meshing", n, dev),
+               "body fields": _FIELD_SECONDS_PER_MNODE * nodes / 1e6,
                "base drape": _cost("base drape", n, dev), "transfer": _cost("transfer", n, dev),
                "initial drapes": _cost("initial drapes", n, dev)}
     if not getattr(settings, "drapes_base_pattern", True):
         # The model holds the unchanged pattern's drape on the target too, which only the
         # report asks for: 1.4 of the 4.8 s of a 60K-triangle grading's initial drapes.
         seconds["initial drapes"] *= 1.0 - 1.4 / 4.8
-    if getattr(settings, "start", "level") == "level":
+    if coarse_edge:
+        # The start is the coarse level's pattern carried over (no level scaling, no Section 7
+        # initialization: one drape of the start); with no search here, so is the base drape.
+        seconds["initial drapes"] *= 1.4 / 4.8
+        if settings.max_outer_iterations == 0:
+            seconds["base drape"] = 0.0
+    elif getattr(settings, "start", "level") == "level":
         seconds["level scaling"] = _cost("level scaling", n, "cpu")
     method = getattr(settings, "method", "adjoint")
     iterations = int(getattr(settings, "max_outer_iterations", 256))
@@ -182,6 +204,7 @@ def plan_grading(settings=None, n_vertices: int | None = None, *, pattern=None, 
     # of their time is taken to scale with S (the rest is the gradient).
     t_it *= max(getattr(settings, "inner_iterations", 8), 1) / 8 * 0.5 + 0.5
     plan = Plan(seconds=seconds, iterations=iterations, checkpoint_every=every, t_iteration=t_it,
+                order=STAGES if coarse_edge else STAGES[1:],
                 t_checkpoint=_cost("t_checkpoint", n, dev),
                 time_budget_s=float(getattr(settings, "time_budget_s", 0.0)), tolerance=float(tolerance),
                 # the fixed point has no backtracking: each iteration is one drape

@@ -84,6 +84,12 @@ def add_grade_options(p, *, truth: bool) -> None:
                              else "(0 skips the term)"))
     p.add_argument("--edge-length", metavar="CM", type=float, default=d.edge_length_cm,
                    help=f"mesh edge length in cm (default {d.edge_length_cm})")
+    p.add_argument("--coarse-edge-length", metavar="CM", type=float, default=d.coarse_edge_length_cm,
+                   help="a mesh at least twice as fine is graded at this edge length first and searched "
+                        f"from there (default {d.coarse_edge_length_cm}; 0: grade every mesh directly)")
+    p.add_argument("--fine-iterations", metavar="N", type=int, default=d.fine_outer_iterations,
+                   help="outer iterations on the finer mesh after its coarse grading "
+                        f"(default {d.fine_outer_iterations})")
     p.add_argument("--sdf-spacing", metavar="M", type=float, default=d.sdf_spacing,
                    help=f"body SDF spacing in metres (default {d.sdf_spacing})")
     p.add_argument("--sdf-region", choices=("auto", "body", "garment"), default=d.sdf_region,
@@ -208,7 +214,8 @@ def settings_from_args(args, base_pattern):
     if overrides:
         strengths = replace(strengths, **overrides)
     settings = GradeSettings(preset=args.preset, strengths=strengths, method=args.method, start=args.start,
-                             edge_length_cm=args.edge_length,
+                             edge_length_cm=args.edge_length, coarse_edge_length_cm=args.coarse_edge_length,
+                             fine_outer_iterations=args.fine_iterations,
                              sdf_spacing=args.sdf_spacing, sdf_region=args.sdf_region,
                              sdf_region_margin=args.sdf_margin, inner_iterations=args.inner_iterations,
                              checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,
@@ -315,9 +322,19 @@ def write_graded(args, result, progress, base_pattern, base_body, target_body, t
             print(f"seamfit grade: note: the {which} body's field was {note}", file=sys.stderr)
     if not args.quiet:
         r = report
-        print(f"{r['method']}: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} "
-              f"({100 * r['objective_reduction']:.1f} % lower) in {r['outer_iterations']} iterations, "
-              f"{r['seconds_total']:.1f} s; max pattern change {r['max_displacement_mm']:.1f} mm", file=sys.stderr)
+        c = r.get("coarse_level")
+        if c:
+            print(f"{r['method']}: graded on the coarse level ({c['edge_length_cm']:g} cm, {c['vertices']} vertices): "
+                  f"objective {c['objective_initial']:.4g} -> {c['objective_final']:.4g} in {c['outer_iterations']} "
+                  f"iterations, {c['seconds']:.1f} s; carried to this mesh ({r['mesh']['vertices']} vertices)",
+                  file=sys.stderr)
+        if c and not r["outer_iterations_done"]:
+            print(f"{r['method']}: {r['seconds_total']:.1f} s; max pattern change {r['max_displacement_mm']:.1f} mm",
+                  file=sys.stderr)
+        else:
+            print(f"{r['method']}: objective {r['objective_initial']:.4g} -> {r['objective_final']:.4g} "
+                  f"({100 * r['objective_reduction']:.1f} % lower) in {r['outer_iterations']} iterations, "
+                  f"{r['seconds_total']:.1f} s; max pattern change {r['max_displacement_mm']:.1f} mm", file=sys.stderr)
         _print_time_split(r)
         print(progress.stages_line(), file=sys.stderr)
         if "accuracy" in r:

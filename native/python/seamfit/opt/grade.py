@@ -14,7 +14,8 @@ Every method's result is scored with the same objective f (the preset's strength
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, replace
 from typing import Optional
 
 import numpy as np
@@ -24,6 +25,7 @@ from ..mesh.boundary import DEFAULT_EDGE_LENGTH_CM
 from ..pattern import Pattern
 from ..sim.model import Fabric, SimSettings
 from .baselines import fixed_point, two_phase
+from .coarse_start import carry_drape, coarse_edge_for, grade_coarse
 from .costs import Strengths
 from .descent import descend
 from .device_arrays import host
@@ -58,6 +60,11 @@ class GradeSettings:
     # "base" (the paper: Section 7's initialization from the base pattern).
     start: str = "level"
     edge_length_cm: float = DEFAULT_EDGE_LENGTH_CM
+    # Coarse-to-fine (seamfit.opt.coarse_start): a mesh at least twice as fine as this is
+    # graded at this edge first, and its search starts from that result and takes at most
+    # fine_outer_iterations (0: every mesh graded directly). Adjoint method only.
+    coarse_edge_length_cm: float = DEFAULT_EDGE_LENGTH_CM
+    fine_outer_iterations: int = 0
     sdf_spacing: float = 0.0025        # the paper's 2.5 mm
     # Where the body fields are built: "body" (whole body), "garment" (cut to the garment's
     # height band +- sdf_region_margin m) or "auto" (whole body unless its grid would exceed
@@ -130,6 +137,8 @@ class GradeSettings:
             raise SolveError(f"unknown grading method {self.method!r}; choose one of {', '.join(METHODS)}")
         if not (self.stop_move_mm >= 0):
             raise SolveError(f"stop_move_mm must be >= 0, got {self.stop_move_mm}")
+        if not (self.coarse_edge_length_cm >= 0 and self.fine_outer_iterations >= 0):
+            raise SolveError("coarse_edge_length_cm and fine_outer_iterations must be >= 0 (0: off / none)")
         if self.inner_iterations < 1 or self.checkpoint_every < 1 or self.max_outer_iterations < 0:
             raise SolveError("inner_iterations and checkpoint_every must be >= 1, max_outer_iterations >= 0")
         if not (self.step > 0 and self.edge_length_cm > 0 and self.sdf_spacing > 0):
@@ -143,6 +152,9 @@ class GradeSettings:
 
 def algorithm1(ctx) -> SearchOutcome:
     """The paper's method: initialization (Section 7), then adjoint descent on f."""
+    coarse = ctx.extra.get("coarse_start")
+    if coarse is not None:
+        return _from_coarse(ctx, coarse)
     ctx.tell(stage="initialize")
     init = initialize_pattern(ctx.mesh, ctx.xbar, ctx.xtilde, ctx.strengths, param=ctx.param,
                               regularizers=ctx.regs, seam=ctx.seam, theta0=ctx.extra.get("theta_level"))
@@ -158,6 +170,24 @@ def algorithm1(ctx) -> SearchOutcome:
     out.initialization = {"objective_history": [float(v) for v in init.history.get("objective", [])][-1:],
                           "message": init.message, "warm_start": warm is not None}
     ctx.extra["theta_init"] = np.array(init.theta, dtype=float)
+    return out
+
+
+def _from_coarse(ctx, coarse) -> SearchOutcome:
+    """The search on the fine mesh from the coarse level's result (seamfit.opt.coarse_start):
+    Section 7's initialization and the long search were the coarse level's."""
+    theta0 = np.array(ctx.extra["theta_level"], dtype=float)   # prepare carried it from the coarse level
+    ctx.tell(stage="initial drape")
+    r0 = ctx.exact(theta0, carry_drape(coarse.mesh, coarse.x, ctx.mesh), "initial drape")
+    out = descend(ctx, ctx.objective, theta0, r0.x)
+    out.initialization = {"objective_history": [], "message": "the coarse level's result, carried to this mesh",
+                          "warm_start": False}
+    if ctx.settings.max_outer_iterations == 0:
+        # No search here: the grading ended where the coarse level's search did.
+        edge = coarse.report["edge_length_cm"]
+        out.converged = bool(coarse.report["converged"])
+        out.message = f"coarse level ({edge:g} cm): {coarse.report['message']}; carried to this mesh"
+    ctx.extra["theta_init"] = np.array(theta0, dtype=float)
     return out
 
 
@@ -178,9 +208,22 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
     (mesh, base field and drape, base ease)."""
     settings = settings or GradeSettings()
     settings.validate()
+    t0 = time.perf_counter()
+    coarse, max_outer_iterations = None, settings.max_outer_iterations
+    if coarse_edge_for(settings):
+        # Coarse-to-fine: the search on the coarse mesh; on this one fine_outer_iterations (default none).
+        coarse = grade_coarse(base_pattern, base_body, target_body, settings, fabric=fabric,
+                              sim_settings=sim_settings, progress=progress,
+                              warm_start=(warm_start or {}).get("coarse"),
+                              shared=None if shared is None else shared.setdefault("coarse", {}))
+        settings = replace(settings, max_outer_iterations=min(settings.max_outer_iterations,
+                                                              settings.fine_outer_iterations))
     ctx = prepare(base_pattern, base_body, target_body, settings, fabric=fabric, sim_settings=sim_settings,
-                  progress=progress, shared=shared)
-    if warm_start is not None and settings.method == "adjoint":
+                  progress=progress, shared=shared, coarse=coarse)
+    if coarse is not None:
+        ctx.t_start = t0          # the report's seconds hold the coarse level's too
+        ctx.extra["coarse_start"] = coarse
+    elif warm_start is not None and settings.method == "adjoint":
         ctx.extra["warm_start"] = warm_start
     outcome = SEARCHES[settings.method](ctx)
     ctx.tell(stage="refit")    # the pattern's curves refitted, the checks and the report
@@ -190,6 +233,12 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
     fields = ctx.extra["sdf"]
     warning = garment_outside_field(ctx.target_sdf, fields["target"], result.x, "target", "of the result")
     result.report["sdf"] = {**fields, **({"warning": warning} if warning else {})}
-    if "theta_init" in ctx.extra:
+    if coarse is not None:
+        result.report["coarse_level"] = coarse.report
+        # the settings as asked (the fine mesh's search took fine_outer_iterations of them)
+        result.report["settings"]["max_outer_iterations"] = max_outer_iterations
+        # a neighbouring size starts its coarse level from this one's
+        result.warm_start = {"coarse": coarse.warm_start}
+    elif "theta_init" in ctx.extra:
         result.warm_start = {"theta_init": ctx.extra["theta_init"], "theta": np.array(host(outcome.theta), dtype=float)}
     return result

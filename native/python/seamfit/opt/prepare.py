@@ -22,6 +22,7 @@ from .costs import CostSet, Strengths
 from .objective import Objective
 from .parametrization import Parametrization
 from .regularizers import Regularizers
+from .coarse_start import carry_drape, carry_pattern
 from .level_scale import level_scaled_pattern
 from .seam import SeamLength
 from .sdf_region import (GARMENT_REGION_MARGIN, body_field, garment_outside_field, placement_z_range,
@@ -133,12 +134,16 @@ class GradeContext:
 
 def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: Fabric | None = None,
             sim_settings: SimSettings | None = None, progress: ProgressFn | None = None,
-            shared: dict | None = None) -> GradeContext:
+            shared: dict | None = None, coarse=None) -> GradeContext:
     """Mesh, SDFs, x-bar, x-tilde and the grading objective; with
     ``settings.evaluate_base_pattern`` (or a baseline method) also the objective of the unchanged
     pattern on the target.
     ``shared``: a dict kept across the calls of one size run (same base pattern, base body,
-    settings and fabric), holding what depends only on the base."""
+    settings and fabric), holding what depends only on the base.
+    ``coarse``: the coarse level of a coarse-to-fine grading (seamfit.opt.coarse_start.CoarseGrading):
+    its graded pattern, carried to this mesh, is the start and the regularizers' anchor; with no
+    outer iterations on this mesh its base drape, carried too, stands in for x-bar (the search
+    that needs a settled one does not run)."""
     from ..body import check_body
 
     t_start = time.perf_counter()
@@ -188,12 +193,17 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     def drape_progress(it, res):
         return None if progress is None else progress({"stage": "base drape", "sim_iteration": it, "residual": res})
 
-    xbar, base_info = once("base_drape", lambda: base_drape(
-        mesh, base_pattern, base_body, base_sdf, fabric, sim_settings, progress=drape_progress,
-        accept_unsettled=getattr(settings, "accept_unsettled_base", False)))
+    if coarse is not None and settings.max_outer_iterations == 0:
+        xbar = carry_drape(coarse.mesh, coarse.xbar, mesh)
+        base_info = {"cached": False, "carried": "the coarse level's base drape, carried to this mesh",
+                     "coarse_edge_length_cm": float(coarse.mesh.edge_length_cm)}
+    else:
+        xbar, base_info = once("base_drape", lambda: base_drape(
+            mesh, base_pattern, base_body, base_sdf, fabric, sim_settings, progress=drape_progress,
+            accept_unsettled=getattr(settings, "accept_unsettled_base", False)))
     problem = garment_outside_field(base_sdf, base_field, xbar, "base", "at the end of the base drape")
     if problem:
-        if not base_info.get("cached"):
+        if not base_info.get("cached") and "key" in base_info:
             # Its cache key holds the field's spacing, not its box: a drape that left the
             # field must not be served to the next run (with sdf_region "body", say).
             (cache_root() / "drape" / f"{base_info['key']}.npz").unlink(missing_ok=True)
@@ -215,7 +225,10 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     # (docs/method.md, "Level scaling"); "base" is the paper's (Section 7 from theta-bar).
     theta_level = None
     start = {"from": "base pattern"}
-    if getattr(settings, "start", "level") == "level":
+    if coarse is not None:
+        theta_level = param.theta_of(carry_pattern(coarse.mesh, coarse.pattern_m, mesh))
+        start = {"from": "coarse level", "coarse_edge_length_cm": float(coarse.mesh.edge_length_cm)}
+    elif getattr(settings, "start", "level") == "level":
         tell(stage="level scaling")
         p_level, info = level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, return_info=True)
         theta_level = param.theta_of(p_level)

@@ -735,7 +735,8 @@ def grade_output(inp: RunInputs, res) -> GradeOutput:
     r = res.report
     ease = (r.get("ease_cm") or {}).get("result") or {}
     # A fine mesh graded coarse-to-fine with no search of its own: the search was the coarse level's.
-    searched = r["coarse_level"] if r.get("coarse_level") and not r.get("outer_iterations_done") else r
+    coarse = r.get("coarse_level") or {}
+    searched = coarse if "objective_final" in coarse and not r.get("outer_iterations_done") else r
     return GradeOutput(
         pattern_json=pattern_to_json(graded), base_pattern_json=inp.pattern_json, garment=g,
         objective=float(searched["objective_final"]), iterations=int(searched["outer_iterations"]),

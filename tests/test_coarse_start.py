@@ -152,3 +152,28 @@ def test_a_size_run_starts_each_coarse_level_from_its_neighbours(tmp_path):
     assert levels == [False, True]
     assert all(r["mesh"]["edge_length_cm"] == 2.5 and r["coarse_level"]["edge_length_cm"] == 5.0
                for r in reports.values())
+
+
+def test_a_pattern_the_coarse_level_cannot_mesh_is_graded_directly(monkeypatch):
+    """A panel too narrow for the coarse edge: the requested mesh is graded as it always was,
+    and the report says why."""
+    import seamfit.opt.prepare as prepare_module
+    from seamfit.body import load_body
+    from seamfit.errors import PatternError
+    from seamfit.opt.grade import grade
+
+    real = prepare_module.build_sewn_mesh
+
+    def narrow(pattern, edge_length_cm=3.0, **kw):
+        if edge_length_cm >= 8.0:
+            raise PatternError("panel 'skirt_front': only 2 boundary vertices at edge 8 cm")
+        return real(pattern, edge_length_cm=edge_length_cm, **kw)
+
+    monkeypatch.setattr(prepare_module, "build_sewn_mesh", narrow)
+    settings = GradeSettings(edge_length_cm=4.0, coarse_edge_length_cm=8.0, sdf_spacing=0.01,
+                             max_outer_iterations=2, checkpoint_every=1, device="cpu")
+    res = grade(load_pattern(SKIRT), load_body(B0), load_body(B1), settings)
+    rep = res.report
+    assert "could not be meshed" in rep["coarse_level"]["skipped"] and "only 2 boundary vertices" in rep["coarse_level"]["skipped"]
+    assert rep["mesh"]["edge_length_cm"] == 4.0 and rep["outer_iterations_done"] > 0
+    assert rep["start"]["from"] == "level scaling"

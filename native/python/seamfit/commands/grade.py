@@ -323,6 +323,9 @@ def write_graded(args, result, progress, base_pattern, base_body, target_body, t
     if not args.quiet:
         r = report
         c = r.get("coarse_level")
+        if c and "skipped" in c:
+            print(f"seamfit grade: note: {c['skipped']}", file=sys.stderr)
+            c = None
         if c:
             print(f"{r['method']}: graded on the coarse level ({c['edge_length_cm']:g} cm, {c['vertices']} vertices): "
                   f"objective {c['objective_initial']:.4g} -> {c['objective_final']:.4g} in {c['outer_iterations']} "

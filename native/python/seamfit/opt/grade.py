@@ -20,7 +20,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..errors import SolveError
+from ..errors import PatternError, SolveError
 from ..mesh.boundary import DEFAULT_EDGE_LENGTH_CM
 from ..pattern import Pattern
 from ..sim.model import Fabric, SimSettings
@@ -209,15 +209,21 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
     settings = settings or GradeSettings()
     settings.validate()
     t0 = time.perf_counter()
-    coarse, max_outer_iterations = None, settings.max_outer_iterations
+    coarse, max_outer_iterations, skipped = None, settings.max_outer_iterations, None
     if coarse_edge_for(settings):
         # Coarse-to-fine: the search on the coarse mesh; on this one fine_outer_iterations (default none).
-        coarse = grade_coarse(base_pattern, base_body, target_body, settings, fabric=fabric,
-                              sim_settings=sim_settings, progress=progress,
-                              warm_start=(warm_start or {}).get("coarse"),
-                              shared=None if shared is None else shared.setdefault("coarse", {}))
-        settings = replace(settings, max_outer_iterations=min(settings.max_outer_iterations,
-                                                              settings.fine_outer_iterations))
+        try:
+            coarse = grade_coarse(base_pattern, base_body, target_body, settings, fabric=fabric,
+                                  sim_settings=sim_settings, progress=progress,
+                                  warm_start=(warm_start or {}).get("coarse"),
+                                  shared=None if shared is None else shared.setdefault("coarse", {}))
+        except PatternError as exc:
+            # A panel too narrow for the coarse edge: this mesh is graded directly.
+            skipped = {"skipped": f"the {coarse_edge_for(settings):g} cm coarse level could not be meshed "
+                                  f"({exc}); graded on this mesh directly"}
+        else:
+            settings = replace(settings, max_outer_iterations=min(settings.max_outer_iterations,
+                                                                  settings.fine_outer_iterations))
     ctx = prepare(base_pattern, base_body, target_body, settings, fabric=fabric, sim_settings=sim_settings,
                   progress=progress, shared=shared, coarse=coarse)
     if coarse is not None:
@@ -233,6 +239,8 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
     fields = ctx.extra["sdf"]
     warning = garment_outside_field(ctx.target_sdf, fields["target"], result.x, "target", "of the result")
     result.report["sdf"] = {**fields, **({"warning": warning} if warning else {})}
+    if skipped is not None:
+        result.report["coarse_level"] = skipped
     if coarse is not None:
         result.report["coarse_level"] = coarse.report
         # the settings as asked (the fine mesh's search took fine_outer_iterations of them)

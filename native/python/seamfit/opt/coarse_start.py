@@ -92,7 +92,7 @@ def carry_pattern(coarse_mesh, coarse_pattern_m: np.ndarray, fine_mesh) -> np.nd
 
     Boundary vertices (the parameters theta) take the coarse boundary's displacement from
     the base pattern, interpolated along each stretch of outline between two corners by
-    its share of the stretch's length, with a cubic spline (C2): the outline has no kinks
+    its share of the stretch's length, by cubic Hermite pieces (C1): the outline has no kinks
     at the coarse vertices (piecewise-linear displacements made R^cur 300 times the graded
     pattern's on a 1.5 cm mesh). Interior vertices, and
     any loop whose corners the two meshes do not share, take the displacement of their
@@ -122,8 +122,6 @@ def _loops(mesh) -> list:
 def _along_outline(loop_c, loop_f, base_c, base_f, corner_c, corner_f, move_c):
     """Displacements of the fine loop's vertices, interpolated stretch by stretch between
     the corners both loops share; None where the loops cannot be matched so."""
-    from scipy.interpolate import CubicSpline
-
     if loop_c is None or loop_f is None:
         return None
     kc = np.flatnonzero(corner_c[loop_c])
@@ -149,9 +147,27 @@ def _along_outline(loop_c, loop_f, base_c, base_f, corner_c, corner_f, move_c):
             return None       # the loops run opposite ways
         tc, tf = _share(base_c[loop_c[idx_c]]), _share(base_f[loop_f[idx_f]])
         mv = move_c[loop_c[idx_c]]
-        out[idx_f] = (CubicSpline(tc, mv, axis=0)(tf) if len(tc) >= 3
-                      else mv[0] + np.outer(tf, mv[-1] - mv[0]))
+        out[idx_f] = _hermite(tc, mv, tf)
     return out
+
+
+def _hermite(t: np.ndarray, y: np.ndarray, tq: np.ndarray) -> np.ndarray:
+    """Piecewise cubic Hermite interpolation of y (n, 2) at t (increasing) evaluated at tq,
+    with each knot's slope the three-point derivative of the non-uniform grid (exact for a
+    parabola; one-sided at the ends): C1, so no kinks at the knots. (NumPy only: the Blender
+    extension ships a SciPy without scipy.interpolate.)"""
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    h = np.diff(t)
+    d = np.diff(y, axis=0) / h[:, None]                     # secant slopes
+    m = np.empty_like(y)
+    m[0], m[-1] = d[0], d[-1]
+    if len(t) > 2:
+        m[1:-1] = (h[1:, None] * d[:-1] + h[:-1, None] * d[1:]) / (h[:-1] + h[1:])[:, None]
+    k = np.clip(np.searchsorted(t, tq, side="right") - 1, 0, len(t) - 2)
+    s = ((tq - t[k]) / h[k])[:, None]
+    h00, h10 = (1 + 2 * s) * (1 - s) ** 2, s * (1 - s) ** 2
+    h01, h11 = s * s * (3 - 2 * s), s * s * (s - 1)
+    return h00 * y[k] + h10 * h[k, None] * m[k] + h01 * y[k + 1] + h11 * h[k, None] * m[k + 1]
 
 
 def _share(points: np.ndarray) -> np.ndarray:

@@ -1,18 +1,14 @@
-"""Coarse-to-fine grading: a mesh finer than the coarse level is graded there first, and
-its search starts from that result.
+"""Coarse-to-fine grading: a mesh at least twice as fine as the coarse level (3 cm by
+default) is graded there, and the result is carried to it.
 
 A grading's cost grows with the mesh (the search's outer iteration about as n^2 on the
-CPU, linearly on the GPU), while its landmark error does not fall below the 3 cm default
-(docs/accuracy_time.md). So the whole search - Section 7's initialization and every
-outer iteration it takes to get there - runs on the coarse mesh, and the fine mesh only
-takes the few iterations that the detail it resolves asks for.
-
-The coarse result is carried to the fine mesh through the base pattern's coordinates:
-each fine vertex lies in a coarse triangle of its panel (``seamfit.sim.multilevel.locate``)
-and moves as that triangle's vertices moved from the base pattern to the graded one. The
-displacement is interpolated, not the position, so a fine curve between two coarse
-boundary vertices keeps its own bulge instead of taking the coarse chord. The coarse
-drape on the target is carried the same way, as the fine search's warm start.
+CPU, linearly on the GPU, and a fine base drape can stagnate), while its landmark error
+does not fall below the 3 cm default's (docs/accuracy_time.md). So the whole grading -
+base drape, level scaling, Section 7's initialization and the search - runs on the coarse
+mesh; the fine mesh takes the graded pattern, carried through the base pattern's
+coordinates (``carry_pattern``), and one exact drape of it on the target, warm-started
+from the coarse drape carried over. It is searched further only when asked
+(``GradeSettings.fine_outer_iterations``; measured not to help, docs/grading.md).
 """
 from __future__ import annotations
 
@@ -94,9 +90,10 @@ def carry_pattern(coarse_mesh, coarse_pattern_m: np.ndarray, fine_mesh) -> np.nd
     the base pattern, interpolated along each stretch of outline between two corners by
     its share of the stretch's length, by cubic Hermite pieces (C1): the outline has no kinks
     at the coarse vertices (piecewise-linear displacements made R^cur 300 times the graded
-    pattern's on a 1.5 cm mesh). Interior vertices, and
-    any loop whose corners the two meshes do not share, take the displacement of their
-    place in the coarse mesh (linear in the coarse triangle holding it)."""
+    pattern's on a 1.5 cm mesh). Interior vertices, and any loop whose corners the two
+    meshes do not share, take the displacement of their place in the coarse mesh (linear in
+    the coarse triangle holding it). The displacement is carried, not the position, so a
+    fine curve keeps its own bulge between two coarse vertices instead of their chord."""
     base_c = np.asarray(coarse_mesh.uv_cm, dtype=float) / 100.0
     base_f = np.asarray(fine_mesh.uv_cm, dtype=float) / 100.0
     move_c = np.asarray(coarse_pattern_m, dtype=float).reshape(-1, 2) - base_c
@@ -114,8 +111,8 @@ def _loops(mesh) -> list:
     """One boundary loop per panel (None for a panel with several: holes)."""
     out = []
     for entry in mesh.boundary_loops:
-        arr = np.asarray(entry, dtype=object if isinstance(entry, list) else None)
-        out.append(np.asarray(entry, dtype=np.int64) if arr.dtype != object else None)
+        several = isinstance(entry, (list, tuple)) and len(entry) > 0 and not np.isscalar(entry[0])
+        out.append(None if several else np.asarray(entry, dtype=np.int64))
     return out
 
 

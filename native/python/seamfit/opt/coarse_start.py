@@ -152,7 +152,7 @@ def _hermite(t: np.ndarray, y: np.ndarray, tq: np.ndarray) -> np.ndarray:
     """Piecewise cubic Hermite interpolation of y (n, 2) at t (increasing) evaluated at tq,
     with each knot's slope the three-point derivative of the non-uniform grid (exact for a
     parabola; one-sided at the ends): C1, so no kinks at the knots. (NumPy only: the Blender
-    extension ships a SciPy without scipy.interpolate.)"""
+    extension ships SciPy without its interpolation package.)"""
     t, y = np.asarray(t, float), np.asarray(y, float)
     h = np.diff(t)
     d = np.diff(y, axis=0) / h[:, None]                     # secant slopes

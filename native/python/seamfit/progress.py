@@ -164,18 +164,15 @@ def plan_grading(settings=None, n_vertices: int | None = None, *, pattern=None, 
         n_vertices = estimate_vertices(pattern, settings.edge_length_cm) if pattern is not None else 3000
     n = int(n_vertices)
     coarse_seconds = 0.0
-    from .opt.coarse_start import coarse_edge_for
+    from .opt.coarse_start import coarse_edge_for, coarse_settings, fine_settings
     coarse_edge = coarse_edge_for(settings)
     if coarse_edge:
         # Coarse-to-fine (seamfit.opt.coarse_start): the whole grading at the coarse edge,
         # then this mesh's stages with its short search.
-        from dataclasses import replace
-        coarse = replace(settings, edge_length_cm=coarse_edge, coarse_edge_length_cm=0.0)
         scale = (float(settings.edge_length_cm) / coarse_edge) ** 2
-        coarse_seconds = sum(plan_grading(coarse, max(int(n * scale), 10), device=device,
+        coarse_seconds = sum(plan_grading(coarse_settings(settings), max(int(n * scale), 10), device=device,
                                           tolerance=tolerance).seconds.values())
-        settings = replace(settings, max_outer_iterations=min(settings.max_outer_iterations,
-                                                              settings.fine_outer_iterations))
+        settings = fine_settings(settings)
     dev = device or getattr(settings, "device", "cpu")
     dev = "cuda" if dev == "cuda" else "cpu"
     spacing = max(float(getattr(settings, "sdf_spacing", 0.0025)), 1e-4)

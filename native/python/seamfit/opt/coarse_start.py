@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..sim.multilevel import COARSENING, locate, prolong
+from ..sim.multilevel import COARSENING, locate
 from .device_arrays import host
 
 
@@ -29,8 +29,7 @@ class CoarseGrading:
     pattern_m: np.ndarray
     x: np.ndarray
     xbar: np.ndarray
-    seconds: float
-    report: dict
+    report: dict              # its search and its seconds, for the grading's report
     warm_start: dict
 
 
@@ -44,6 +43,17 @@ def coarse_edge_for(settings) -> float:
     return coarse if COARSENING * float(settings.edge_length_cm) <= coarse + 1e-9 else 0.0
 
 
+def coarse_settings(settings):
+    """``settings`` at the coarse level: its edge, graded directly."""
+    return replace(settings, edge_length_cm=coarse_edge_for(settings), coarse_edge_length_cm=0.0)
+
+
+def fine_settings(settings):
+    """``settings`` on the fine mesh after its coarse level: fine_outer_iterations at most."""
+    return replace(settings, max_outer_iterations=min(settings.max_outer_iterations,
+                                                      settings.fine_outer_iterations))
+
+
 def grade_coarse(base_pattern, base_body, target_body, settings, *, fabric=None, sim_settings=None,
                  progress=None, warm_start=None, shared=None) -> CoarseGrading:
     """Algorithm 1 on the pattern meshed at ``coarse_edge_for(settings)``, every other
@@ -52,8 +62,7 @@ def grade_coarse(base_pattern, base_body, target_body, settings, *, fabric=None,
     from .prepare import prepare
 
     t0 = time.perf_counter()
-    edge = coarse_edge_for(settings)
-    coarse_settings = replace(settings, edge_length_cm=edge, coarse_edge_length_cm=0.0)
+    coarse = coarse_settings(settings)
 
     def relay(info):
         if progress is None:
@@ -61,13 +70,13 @@ def grade_coarse(base_pattern, base_body, target_body, settings, *, fabric=None,
         # The coarse level's own stages are one stage of the whole grading.
         return progress({"stage": "coarse grading", "detail": info.get("stage")})
 
-    ctx = prepare(base_pattern, base_body, target_body, coarse_settings, fabric=fabric,
+    ctx = prepare(base_pattern, base_body, target_body, coarse, fabric=fabric,
                   sim_settings=sim_settings, progress=relay, shared=shared)
     if warm_start is not None:
         ctx.extra["warm_start"] = warm_start
     out = algorithm1(ctx)
     pattern_m = np.array(host(ctx.param.pattern(out.theta)), dtype=float)
-    report = {"edge_length_cm": edge, "vertices": int(ctx.mesh.n_vertices),
+    report = {"edge_length_cm": coarse.edge_length_cm, "vertices": int(ctx.mesh.n_vertices),
               "outer_iterations": int(out.iterations), "outer_iterations_done": int(out.iterations_done),
               "converged": bool(out.converged), "message": out.message,
               "objective_initial": float(out.checkpoints[0]["objective"]) if out.checkpoints else None,
@@ -76,11 +85,9 @@ def grade_coarse(base_pattern, base_body, target_body, settings, *, fabric=None,
               "warm_start": warm_start is not None}
     warm = {"theta_init": np.array(ctx.extra["theta_init"], dtype=float),
             "theta": np.array(host(out.theta), dtype=float)}
-    seconds = time.perf_counter() - t0
-    report["seconds"] = seconds
+    report["seconds"] = time.perf_counter() - t0
     return CoarseGrading(mesh=ctx.mesh, pattern_m=pattern_m, x=np.array(host(out.x), dtype=float),
-                         xbar=np.array(ctx.xbar, dtype=float),
-                         seconds=seconds, report=report, warm_start=warm)
+                         xbar=np.array(ctx.xbar, dtype=float), report=report, warm_start=warm)
 
 
 def carry_pattern(coarse_mesh, coarse_pattern_m: np.ndarray, fine_mesh) -> np.ndarray:
@@ -171,8 +178,3 @@ def _share(points: np.ndarray) -> np.ndarray:
     """Each point's share of the polyline's length from its start (0 .. 1)."""
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
     return s / s[-1] if s[-1] > 0 else np.linspace(0.0, 1.0, len(points))
-
-
-def carry_drape(coarse_mesh, x_coarse: np.ndarray, fine_mesh) -> np.ndarray:
-    """The coarse drape on the target at the fine mesh's vertices (N_fine, 3)."""
-    return prolong(coarse_mesh, x_coarse, fine_mesh)

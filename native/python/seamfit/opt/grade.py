@@ -15,7 +15,7 @@ Every method's result is scored with the same objective f (the preset's strength
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
@@ -24,8 +24,9 @@ from ..errors import PatternError, SolveError
 from ..mesh.boundary import DEFAULT_EDGE_LENGTH_CM
 from ..pattern import Pattern
 from ..sim.model import Fabric, SimSettings
+from ..sim.multilevel import prolong
 from .baselines import fixed_point, two_phase
-from .coarse_start import carry_drape, coarse_edge_for, grade_coarse
+from .coarse_start import coarse_edge_for, fine_settings, grade_coarse
 from .costs import Strengths
 from .descent import descend
 from .device_arrays import host
@@ -60,9 +61,9 @@ class GradeSettings:
     # "base" (the paper: Section 7's initialization from the base pattern).
     start: str = "level"
     edge_length_cm: float = DEFAULT_EDGE_LENGTH_CM
-    # Coarse-to-fine (seamfit.opt.coarse_start): a mesh at least twice as fine as this is
-    # graded at this edge first, and its search starts from that result and takes at most
-    # fine_outer_iterations (0: every mesh graded directly). Adjoint method only.
+    # Coarse-to-fine (seamfit.opt.coarse_start), adjoint method only: a mesh at least twice as
+    # fine as coarse_edge_length_cm (0: every mesh graded directly) is graded at that edge
+    # first and its pattern carried over; the finer mesh then takes fine_outer_iterations.
     coarse_edge_length_cm: float = DEFAULT_EDGE_LENGTH_CM
     fine_outer_iterations: int = 0
     sdf_spacing: float = 0.0025        # the paper's 2.5 mm
@@ -178,7 +179,7 @@ def _from_coarse(ctx, coarse) -> SearchOutcome:
     Section 7's initialization and the long search were the coarse level's."""
     theta0 = np.array(ctx.extra["theta_level"], dtype=float)   # prepare carried it from the coarse level
     ctx.tell(stage="initial drape")
-    r0 = ctx.exact(theta0, carry_drape(coarse.mesh, coarse.x, ctx.mesh), "initial drape")
+    r0 = ctx.exact(theta0, prolong(coarse.mesh, coarse.x, ctx.mesh), "initial drape")
     out = descend(ctx, ctx.objective, theta0, r0.x)
     out.initialization = {"objective_history": [], "message": "the coarse level's result, carried to this mesh",
                           "warm_start": False}
@@ -222,8 +223,7 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
             skipped = {"skipped": f"the {coarse_edge_for(settings):g} cm coarse level could not be meshed "
                                   f"({exc}); graded on this mesh directly"}
         else:
-            settings = replace(settings, max_outer_iterations=min(settings.max_outer_iterations,
-                                                                  settings.fine_outer_iterations))
+            settings = fine_settings(settings)
     ctx = prepare(base_pattern, base_body, target_body, settings, fabric=fabric, sim_settings=sim_settings,
                   progress=progress, shared=shared, coarse=coarse)
     if coarse is not None:

@@ -17,12 +17,13 @@ from ..errors import SolveError
 from ..mesh import build_sewn_mesh
 from ..pattern import Pattern, check_pattern
 from ..sim.model import Fabric, SimSettings, Simulator
+from ..sim.multilevel import prolong
 from .adjoint import AdjointSolver
 from .costs import CostSet, Strengths
 from .objective import Objective
 from .parametrization import Parametrization
 from .regularizers import Regularizers
-from .coarse_start import carry_drape, carry_pattern
+from .coarse_start import carry_pattern
 from .level_scale import level_scaled_pattern
 from .seam import SeamLength
 from .sdf_region import (GARMENT_REGION_MARGIN, body_field, garment_outside_field, placement_z_range,
@@ -194,7 +195,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         return None if progress is None else progress({"stage": "base drape", "sim_iteration": it, "residual": res})
 
     if coarse is not None and settings.max_outer_iterations == 0:
-        xbar = carry_drape(coarse.mesh, coarse.xbar, mesh)
+        xbar = prolong(coarse.mesh, coarse.xbar, mesh)
         base_info = {"cached": False, "carried": "the coarse level's base drape, carried to this mesh",
                      "coarse_edge_length_cm": float(coarse.mesh.edge_length_cm)}
     else:

@@ -3,9 +3,10 @@
 A cold grading spends about a second building the body fields in compiled code that
 releases the GIL, while scipy.optimize (the curve refit) and matplotlib (the pictures)
 take 0.5-1 s to import and are needed only after the search. ``want`` names such modules;
-``start``, called as the body fields begin, imports them on one background thread. An
-import that fails there is left to fail where the module is used, with its own message;
-the interpreter waits for the thread before it exits.
+``start``, called as the body fields begin, imports them on one background thread, in
+order: scipy.spatial (the level scaling's hulls, right after the fields; seamfit.opt.fit)
+goes first. An import that fails there is left to fail where the module is used, with its
+own message; the interpreter waits for the thread before it exits.
 """
 from __future__ import annotations
 
@@ -20,11 +21,14 @@ _wanted: list[str] = []
 _thread: threading.Thread | None = None
 
 
-def want(*names: str) -> None:
-    """Modules this run will import later (loaded by the next ``start``)."""
-    for n in names:
-        if n not in _wanted:
-            _wanted.append(n)
+def want(*names: str, first: bool = False) -> None:
+    """Modules this run will import later (loaded by the next ``start``); ``first``: ahead
+    of those already named, for a module needed right after the body fields."""
+    names = list(dict.fromkeys(names))
+    if first:
+        _wanted[:] = names + [n for n in _wanted if n not in names]
+    else:
+        _wanted.extend(n for n in names if n not in _wanted)
 
 
 def start(*names: str) -> None:

@@ -19,7 +19,6 @@ from types import SimpleNamespace
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import Delaunay, cKDTree
 
 from ..body.measure import _hull_perimeter, _Slicer, encloses
 from .fit import hull as _hull
@@ -123,6 +122,7 @@ def sleeve_panels(mesh, xbar, base_body, arms) -> np.ndarray:
     label[V[:, 2] < arms[0]["armpit"]] = len(arms)          # the torso (and legs) below it
     for i, arm in enumerate(arms):
         label[arm["vertices"]] = i
+    from scipy.spatial import cKDTree   # here, not at the top: as in seamfit.opt.fit
     _, nearest = cKDTree(V).query(xbar)
     lab = label[nearest]
     for p in range(len(out)):
@@ -140,6 +140,7 @@ def _arm_profile(arm, base_body, target_body, x_rot_tri) -> dict:
     taken from the nearest sample that has them where the plane is not the arm's alone
     (module docstring). ``x_rot_tri(origin, R)`` gives the garment's vertices in the
     plane's frame and the sleeve's triangles."""
+    from scipy.spatial import Delaunay
     V = np.asarray(base_body.vertices, dtype=float)
     F = np.asarray(base_body.faces)
     tv = np.asarray(target_body.vertices, dtype=float)
@@ -210,6 +211,7 @@ def sleeve_targets(mesh, xbar, base_body, target_body, levels: dict):
         prof = _arm_profile(arm, base_body, target_body, x_rot_tri)
         if not np.isfinite(prof["dH"]).any():
             continue            # no plane measured the sleeve: it keeps the torso's levels
+        from scipy.spatial import cKDTree
         _, k = cKDTree(arm["P"]).query(cent[mine])
         mask[mine] = True
         sx[mine], up[mine] = prof["sx"][k], -arm["A"][k]

@@ -52,3 +52,73 @@ def test_scipy_spatial_loads_first_while_the_body_fields_are_built():
             "print('scipy.spatial' in sys.modules, preload._wanted[0])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "scipy.spatial"]
+
+
+def test_a_wanted_call_runs_on_the_thread_once(monkeypatch):
+    monkeypatch.setattr(preload, "_wanted", [])
+    monkeypatch.setattr(preload, "_thread", None)
+    calls = []
+
+    def fails():
+        calls.append("fails")
+        raise RuntimeError("left to fail where it is needed")
+
+    preload.want(lambda: calls.append("first"), first=True)
+    preload.want(fails)
+    preload.start()
+    preload._thread.join(timeout=30)
+    assert calls == ["first", "fails"]
+    assert preload._wanted == []                  # done: the next start calls nothing
+    preload.start()
+    if preload._thread is not None:
+        preload._thread.join(timeout=30)
+    assert calls == ["first", "fails"]
+
+
+def test_a_body_measured_ahead_is_measured_once(monkeypatch):
+    """The level scaling's measurements, taken on the preload's thread while the fields are
+    built: a caller that asks while they are being taken waits for them, not measuring twice;
+    if that measurement fails the caller measures and gets the error itself."""
+    import threading
+    from pathlib import Path
+    import seamfit.body.measure as measure
+    from seamfit.body import load_body
+    body = load_body(Path(__file__).resolve().parents[1] / "sample_files/bodies/women_size06.obj")
+    monkeypatch.setattr(measure, "_memo", type(measure._memo)())
+    started, release, count = threading.Event(), threading.Event(), []
+    real = measure._measure
+
+    def slow(*a, **k):
+        count.append(1)
+        started.set()
+        release.wait(timeout=30)
+        return real(*a, **k)
+
+    monkeypatch.setattr(measure, "_measure", slow)
+    ahead = threading.Thread(target=measure.body_measurements, args=(body,))
+    ahead.start()
+    assert started.wait(timeout=30)
+    out = {}
+    asker = threading.Thread(target=lambda: out.setdefault("m", measure.body_measurements(body)))
+    asker.start()
+    asker.join(timeout=0.3)
+    assert asker.is_alive()                       # waiting for the measurement in hand
+    release.set()
+    ahead.join(timeout=60)
+    asker.join(timeout=60)
+    assert len(count) == 1 and out["m"]["hip"] > 0
+
+    def broken(*a, **k):
+        count.append(1)
+        raise ValueError("unmeasurable")
+
+    monkeypatch.setattr(measure, "_measure", broken)
+    other = type(body)(body.vertices * 1.01, body.faces)
+    for _ in range(2):                            # nothing remembered from a failure
+        try:
+            measure.body_measurements(other)
+        except ValueError:
+            pass
+        else:
+            raise AssertionError("the failure is the caller's")
+    assert len(count) == 3

@@ -285,6 +285,7 @@ def body_measurements(body: Body, landmarks=None, tapes: bool = False) -> dict:
 _MEMO_SIZE = 8
 _memo: OrderedDict = OrderedDict()
 _memo_lock = threading.Lock()
+_measuring: dict = {}       # key -> Event, set when that measurement ends
 
 
 def _remembered(body: Body, lm: dict | None) -> dict:
@@ -295,16 +296,29 @@ def _remembered(body: Body, lm: dict | None) -> dict:
         h.update(a.data)
     h.update(json.dumps(lm, sort_keys=True).encode())
     key = h.hexdigest()
-    with _memo_lock:
-        found = _memo.get(key)
-        if found is not None:
-            _memo.move_to_end(key)
-    if found is None:
+    while True:
+        with _memo_lock:
+            found = _memo.get(key)
+            if found is not None:
+                _memo.move_to_end(key)
+                return copy.deepcopy(found)
+            busy = _measuring.get(key)
+            if busy is None:            # nobody measures it: this thread does
+                busy = _measuring[key] = threading.Event()
+                break
+        # Another thread (seamfit.preload's, measuring ahead) has it in hand: wait for it,
+        # then read the memo; if that measurement failed, measure here.
+        busy.wait()
+    try:
         found = _measure(body, lm, tapes=False)
         with _memo_lock:
             _memo[key] = found
             while len(_memo) > _MEMO_SIZE:
                 _memo.popitem(last=False)
+    finally:
+        with _memo_lock:
+            _measuring.pop(key, None)
+        busy.set()
     return copy.deepcopy(found)
 
 

@@ -69,6 +69,17 @@ def base_levels(base_body) -> dict:
     return body_measurements(base_body)["levels_z_m"]
 
 
+def measure_ahead(base_body, target_body) -> None:
+    """Take the measurements level scaling will ask for (each body's levels, and with
+    MakeHuman's landmarks its waist-to-hip), so they are remembered when it does: run on
+    seamfit.preload's thread while the body fields are built."""
+    lm = _hm08_landmarks(base_body, target_body)
+    for body in (base_body, target_body):
+        body_measurements(body)
+        if lm is not None:
+            body_measurements(body, landmarks=lm)
+
+
 def level_map(base_body, target_body, *, crotch: bool = True, levels: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Knots (z_base, z_target) of the monotone piecewise linear map between the two
     bodies' levels: soles, crotch (unless ``crotch`` is False), waist, armpit, crown.

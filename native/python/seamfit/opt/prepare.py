@@ -4,6 +4,7 @@ parametrization, regularizers, the grading objective f with the preset strengths
 simulator on the target body."""
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import asdict, dataclass, field, replace
 from typing import Callable, Optional
@@ -24,7 +25,7 @@ from .objective import Objective
 from .parametrization import Parametrization
 from .regularizers import Regularizers
 from .coarse_start import carry_pattern
-from .level_scale import level_scaled_pattern
+from .level_scale import level_scaled_pattern, measure_ahead
 from .seam import SeamLength
 from .sdf_region import (GARMENT_REGION_MARGIN, body_field, garment_outside_field, placement_z_range,
                          resolve_sdf_region)
@@ -165,6 +166,9 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
 
     check_pattern(base_pattern)
     preload.want("scipy.optimize")      # the curve refit, at the end (seamfit.preload)
+    if getattr(settings, "start", "level") == "level":
+        # The level scaling measures both bodies right after the fields (0.1-0.3 s each)
+        preload.want(functools.partial(measure_ahead, base_body, target_body), first=True)
     tell(stage="mesh")
     mesh = once("mesh", lambda: build_sewn_mesh(base_pattern, edge_length_cm=settings.edge_length_cm))
     # Where the simulations and the adjoint solve run: auto takes the device this machine

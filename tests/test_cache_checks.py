@@ -9,6 +9,7 @@ import logging
 import os
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -332,3 +333,34 @@ def test_native_queries_refuse_non_finite_input(body):
     bad[:] = np.nan
     with pytest.raises(ValueError, match="not finite"):
         core().sdf_sample_grid(bad, sdf.origin, sdf.spacing, V[:3])
+
+
+def test_a_field_written_behind_is_on_disk_when_read_or_waited_for(tmp_path, monkeypatch):
+    """A grading's body fields go to the disk cache on a thread of their own
+    (``build_sdf(write_behind=True)``): reading the entry, ``wait_for_writes`` and the
+    interpreter's exit wait for it, and it is the same field."""
+    import seamfit.body.sdf as sdf_mod
+    from seamfit import cache as disk_cache
+    from seamfit.body import build_sdf, load_body
+    monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
+    sdf_mod._memory.clear()
+    body = load_body(SAMPLES / "bodies/women_size06.obj")
+    release = threading.Event()
+    real = disk_cache.write_entry
+
+    def slow(path, write):
+        release.wait(timeout=30)
+        return real(path, write)
+
+    monkeypatch.setattr(disk_cache, "write_entry", slow)
+    built = build_sdf(body, spacing=0.02, write_behind=True)
+    path = sdf_mod.sdf_cache_dir() / f"{built.info['cache_key']}.npz"
+    assert not path.exists()                      # still being written
+    sdf_mod._memory.clear()
+    threading.Timer(0.2, release.set).start()
+    again = build_sdf(body, spacing=0.02)         # waits for the writer, then reads it
+    assert again.source == "disk cache" and np.array_equal(again.values, built.values)
+    built2 = build_sdf(body, spacing=0.025, write_behind=True)
+    disk_cache.wait_for_writes()
+    assert (sdf_mod.sdf_cache_dir() / f"{built2.info['cache_key']}.npz").is_file()
+    assert not disk_cache._pending

@@ -13,12 +13,14 @@ the next time the folder is used. The cache is limited to $SEAMFIT_CACHE_MAX_MB 
 """
 from __future__ import annotations
 
+import atexit
 import hashlib
 import json
 import logging
 import os
 import re
 import secrets
+import threading
 import time
 from pathlib import Path
 from typing import Callable, Optional
@@ -121,6 +123,7 @@ def read_entry(path: Path, check: Callable[[dict], Optional[str]], problems: Opt
     or None) accepts them; a bad entry is deleted and reported (and its reason appended
     to ``problems``), and None returned."""
     path = Path(path)
+    wait_for_writes(path)
     sweep_temporaries(path.parent)
     if not path.is_file():
         return None
@@ -175,6 +178,42 @@ def save_arrays(kind: str, key: str, arrays: dict) -> Optional[Path]:
     if STORED_KEY in arrays:
         raise ValueError(f"{STORED_KEY!r} is reserved")
     return write_entry(entry_path(kind, key), lambda f: np.savez(f, **{STORED_KEY: np.array(key)}, **arrays))
+
+
+_pending: dict = {}                 # path -> the thread writing it (write_entry_soon)
+_pending_lock = threading.Lock()
+
+
+def write_entry_soon(path: Path, write: Callable) -> None:
+    """``write_entry`` on a thread of its own, for an entry the run does not wait for (a body
+    field: 250 MB, written while the grading goes on). ``wait_for_writes`` waits for it;
+    reading that entry, and the interpreter's exit, do so too."""
+    path = Path(path)
+    wait_for_writes(path)               # one writer per entry
+
+    def run():
+        try:
+            write_entry(path, write)
+        except Exception:   # noqa: BLE001 - a cache never fails a run: the next one rebuilds
+            pass
+
+    t = threading.Thread(target=run, name="seamfit-cache-write", daemon=True)
+    with _pending_lock:
+        _pending[path] = t
+    t.start()
+
+
+@atexit.register
+def wait_for_writes(path: Optional[Path] = None) -> None:
+    """Wait until the entries written by ``write_entry_soon`` (only ``path``'s, if given) are
+    on disk."""
+    with _pending_lock:
+        todo = [(p, t) for p, t in _pending.items() if path is None or p == Path(path)]
+    for p, t in todo:
+        t.join()
+        with _pending_lock:
+            if _pending.get(p) is t:
+                del _pending[p]
 
 
 def write_entry(path: Path, write: Callable) -> Optional[Path]:

@@ -253,12 +253,14 @@ def _referenced_only(body: Body) -> Body:
 
 
 def build_sdf(body: Body, spacing: float = DEFAULT_SPACING, padding: float = DEFAULT_PADDING, bounds=None,
-              cache: bool = True, threads: int = 0, device: str = "cpu") -> SignedDistanceField:
+              cache: bool = True, threads: int = 0, device: str = "cpu",
+              write_behind: bool = False) -> SignedDistanceField:
     """Signed distance field of ``body`` (negative inside) with node spacing
     ``spacing`` over its bounding box plus ``padding`` (metres), or over exactly
     ``bounds`` = (xmin, ymin, zmin, xmax, ymax, zmax). Raises BodyError for an
     unusable body or grid. ``cache`` reuses a field built from identical inputs
-    by the same device's builder. ``device``: "cpu" (band, propagation, sign) or
+    by the same device's builder; ``write_behind`` stores a new one on disk on a thread
+    of its own (seamfit.cache.write_entry_soon) instead of before returning. ``device``: "cpu" (band, propagation, sign) or
     "cuda" (exact nearest distances on the GPU, the sign on the CPU); DeviceError
     when cuda cannot run here."""
     if _check_device(device) == "cuda":
@@ -309,7 +311,8 @@ def build_sdf(body: Body, spacing: float = DEFAULT_SPACING, padding: float = DEF
     if cache:
         _remember(key, sdf)
         # A read-only or full cache directory only costs a rebuild next time.
-        disk_cache.write_entry(sdf_cache_dir() / f"{key}.npz", sdf._write)
+        (disk_cache.write_entry_soon if write_behind else disk_cache.write_entry)(
+            sdf_cache_dir() / f"{key}.npz", sdf._write)
     if rejected:  # reported on this result only, not stored with the field
         sdf = SignedDistanceField(values, sdf.origin, spacing, {**info, "cache_rejected": rejected}, source="built")
     return sdf

@@ -20,6 +20,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..cache import wait_for_writes
 from ..errors import PatternError, SolveError
 from ..mesh.boundary import DEFAULT_EDGE_LENGTH_CM
 from ..pattern import Pattern
@@ -249,4 +250,6 @@ def grade(base_pattern: Pattern, base_body, target_body, settings: GradeSettings
         result.warm_start = {"coarse": coarse.warm_start}
     elif "theta_init" in ctx.extra:
         result.warm_start = {"theta_init": ctx.extra["theta_init"], "theta": np.array(host(outcome.theta), dtype=float)}
+    # The body fields went to the disk cache while the grading ran: on disk when it returns.
+    wait_for_writes()
     return result

@@ -106,12 +106,12 @@ def body_field(body, spacing: float, region: str, *, z_range=None, margin: float
     # The build releases the GIL: what the run imports at its end loads meanwhile.
     preload.start()
     try:
-        sdf = build_sdf(body, spacing=spacing, bounds=bounds, device=device)
+        sdf = build_sdf(body, spacing=spacing, bounds=bounds, device=device, write_behind=True)
     except DeviceError as exc:
         if device != "cuda":
             raise
         built_on, note = "cpu", f"built on the CPU: {exc}"
-        sdf = build_sdf(body, spacing=spacing, bounds=bounds, device="cpu")
+        sdf = build_sdf(body, spacing=spacing, bounds=bounds, device="cpu", write_behind=True)
     lo, hi = sdf.bounds
     info = {"region": region, "body": getattr(body, "name", None) or getattr(body, "where", "body"),
             "spacing_m": float(sdf.spacing), "dims": list(sdf.dims), "nodes": int(sdf.values.size),

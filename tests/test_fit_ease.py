@@ -64,3 +64,25 @@ def test_a_garment_that_does_not_go_around_has_no_girth_there(at_bust):
     assert ease_report(body, x, tri, levels)["bust"] is None
     x, tri = tube(c, r, z, arc=1.9 * np.pi)              # a gap a tape bridges
     assert ease_report(body, x, tri, levels)["bust"] is not None
+
+
+def test_the_bust_s_ease_is_taken_over_the_bust_points():
+    """On a body of MakeHuman's mesh the bust's ease is taken at the bust points' height
+    (the fullest girth of a small bust lies under the arms, where a sleeveless bodice is
+    open at its armholes); the waist and hip stay at the body's measuring levels, and a body
+    of another mesh keeps its bust level."""
+    from dataclasses import replace
+    from seamfit.body import hm08_landmarks
+    from seamfit.opt.fit import ease_levels
+    body = load_body(BODY)
+    lm = hm08_landmarks()
+    measured = body_measurements(body)["levels_z_m"]
+    levels = ease_levels(body)
+    apex = float(np.mean(body.vertices[[lm["bust_point_L"], lm["bust_point_R"]], 2]))
+    assert levels["bust"] == pytest.approx(apex, abs=1e-12)
+    assert levels["waist"] == measured["waist"] and levels["hip"] == measured["hip"]
+    v = np.array(body.vertices, dtype=float)
+    v[[lm["bust_point_L"], lm["bust_point_R"]], 2] -= 0.02      # the apex 2 cm lower
+    assert ease_levels(replace(body, vertices=v))["bust"] == pytest.approx(apex - 0.02, abs=1e-12)
+    other = replace(body, faces=np.asarray(body.faces)[::-1].copy())
+    assert ease_levels(other)["bust"] == measured["bust"]

@@ -328,7 +328,7 @@ def markdown(res: dict, title_note: str | None, plot_rel: str, notes: str | None
         "scaled about its bounding-box centre, widths by the target/base girth ratio - bust for tops, "
         "waist for circle skirts, hip otherwise - and lengths by the stature ratio, curves refitted). "
         "**Ease error**: |ease on the target - ease of the base pattern on the base body| (garment tape "
-        "girth minus body tape girth, `seamfit.opt.fit.ease_report`) at the level the garment encloses "
+        "girth minus body tape girth, `seamfit.opt.fit.ease_report`, the bust's over the bust points) at the level the garment encloses "
         "(bust for tops, waist for circle skirts, hip otherwise; every level, and the max over them, "
         "under *Ease per level*); for the baselines the pattern is draped on the target from the "
         "same transferred start as the grading (`n/m`: not measured). **Seconds**: the grading's "

@@ -133,5 +133,13 @@ def hm08_landmarks() -> dict:
     return {k: (list(v) if isinstance(v, list) else v) for k, v in _model().landmarks.items()}
 
 
+def landmarks_of(*bodies) -> dict | None:
+    """The hm08 landmarks where every body is of MakeHuman's mesh (its faces), else None."""
+    faces = hm08_faces()
+    if not all(np.array_equal(np.asarray(b.faces), faces) for b in bodies):
+        return None
+    return hm08_landmarks()
+
+
 def body_from_shape(shape: ShapeParameters, name: str = "body") -> Body:
     return Body(shape_vertices(shape), hm08_faces(), name=name)

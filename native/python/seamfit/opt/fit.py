@@ -13,6 +13,7 @@ import numpy as np
 
 from .. import preload
 from ..body.measure import _hull_perimeter, _Slicer, body_measurements
+from ..body.shape_model import landmarks_of
 
 # scipy.spatial (hulls, nearest points) is imported where it is used: a grading imports
 # this module at its start, and the level scaling, right after the body fields, is the
@@ -105,12 +106,27 @@ def garment_tape(slicer: _Slicer, x: np.ndarray, triangles: np.ndarray, z: float
     return _hull_perimeter(hg.points[hg.vertices]), slicer.girth(z)
 
 
+def ease_levels(body) -> dict:
+    """The heights (m) ease is taken at: the body's measuring levels (bust, waist, hip), the
+    bust at the bust points' height on a body of MakeHuman's mesh. Its bust tape is the
+    fullest girth below the armpits, which on a small bust is the chest under the arms
+    (size 02 and pear: 3.2-3.5 cm above the bust points), where a sleeveless bodice's
+    section is open at the armholes and its hull no tape of the garment; drafting takes the
+    bust's ease over the bust points."""
+    levels = dict(body_measurements(body)["levels_z_m"])
+    lm = landmarks_of(body)
+    if lm is not None:
+        v = np.asarray(body.vertices, dtype=float)
+        levels["bust"] = float(v[[lm["bust_point_L"], lm["bust_point_R"]], 2].mean())
+    return levels
+
+
 def ease_report(body, x: np.ndarray, triangles: np.ndarray, levels: dict | None = None) -> dict:
-    """Ease (cm) at bust, waist and hip: garment girth minus body girth at the body's own
-    measuring levels, both around the torso. None where the garment does not go around
-    the torso at that level."""
+    """Ease (cm) at bust, waist and hip: garment girth minus body girth at the body's
+    ``ease_levels``, both around the torso. None where the garment does not go around the
+    torso at that level."""
     if levels is None:
-        levels = body_measurements(body)["levels_z_m"]
+        levels = ease_levels(body)
     slicer = _Slicer(body)
     out = {}
     for name in ("bust", "waist", "hip"):

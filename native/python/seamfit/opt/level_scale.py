@@ -39,6 +39,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import spsolve
 
 from ..body.measure import _Slicer, body_measurements
+from ..body.shape_model import landmarks_of
 from .costs import sample_sdf
 from .fit import hull as _hull
 from .fit import mesh_cross_section, outside_by, torso_cloth
@@ -73,7 +74,7 @@ def measure_ahead(base_body, target_body) -> None:
     """Take the measurements level scaling will ask for (each body's levels, and with
     MakeHuman's landmarks its waist-to-hip), so they are remembered when it does: run on
     seamfit.preload's thread while the body fields are built."""
-    lm = _hm08_landmarks(base_body, target_body)
+    lm = landmarks_of(base_body, target_body)
     for body in (base_body, target_body):
         body_measurements(body)
         if lm is not None:
@@ -105,15 +106,6 @@ def level_map(base_body, target_body, *, crotch: bool = True, levels: dict | Non
     return _monotone(np.array(zb), np.array(zt))
 
 
-def _hm08_landmarks(*bodies):
-    """The MakeHuman (hm08) landmarks where every body is of that mesh, else None."""
-    from ..body.shape_model import hm08_faces, hm08_landmarks
-    faces = hm08_faces()
-    if not all(np.array_equal(np.asarray(b.faces), faces) for b in bodies):
-        return None
-    return hm08_landmarks()
-
-
 def _with_knot(zmap, kb: float, kt: float):
     """The height map with one more knot, base height kb placed at kt on the target."""
     zb, zt = zmap
@@ -126,7 +118,7 @@ def with_seat_line(zmap, base_body, target_body):
     waist-to-hip), placed on the target at the target's natural waist (where the map takes
     the base's) less the target's own waist-to-hip. Both lengths are the landmark-based
     measurement of any body of the MakeHuman (hm08) mesh; other bodies keep the map as it is."""
-    lm = _hm08_landmarks(base_body, target_body)
+    lm = landmarks_of(base_body, target_body)
     if lm is None:
         return zmap
     m0 = body_measurements(base_body, landmarks=lm)
@@ -141,7 +133,7 @@ def _landmark_knot(zmap, base_body, target_body, names):
     """The height map with a knot at the mean height of the named MakeHuman landmarks (a
     ring counts all its vertices), placed where the same vertices are on the target. Bodies
     of another mesh than MakeHuman's (hm08) keep the map as it is."""
-    lm = _hm08_landmarks(base_body, target_body)
+    lm = landmarks_of(base_body, target_body)
     if lm is None:
         return zmap
     idx = np.concatenate([np.atleast_1d(np.asarray(lm[n])) for n in names])

@@ -46,12 +46,13 @@ def start(*names: str) -> None:
     _thread.start()
 
 
-def _load(names: list[str]) -> None:
+def _load(names: list) -> None:
     for n in names:
         try:
             if callable(n):
                 n()
-            elif n == "matplotlib.pyplot":
+                continue
+            if n == "matplotlib.pyplot":
                 import matplotlib
                 matplotlib.use("Agg")   # as the renderers do: no GUI backend is chosen
             importlib.import_module(n)

@@ -110,7 +110,19 @@ class BaselineDrapes:
             c = 0.5 * (o.min(axis=0) + o.max(axis=0))
             idx = vp == k
             uv[idx] = c + (uv[idx] - c) * np.array([sx, sy])
-        self.sim.set_pattern(0.01 * uv)
+        return self._drape(0.01 * uv)
+
+    def draft_ease(self, draft) -> dict:
+        """Ease (cm) of the drafted pattern for the target, put on the base mesh edge by edge
+        (``draft_on_mesh``) and draped the same way: the ease the drafting system gives that
+        body. Raises ValueError where the draft's panels have other edges than the base's."""
+        from draft_on_mesh import truth_on_mesh
+        from seamfit.opt.parametrization import Parametrization
+        param = Parametrization(self.mesh)
+        return self._drape(param.pattern(truth_on_mesh(self.mesh, param, self.pattern, draft)))
+
+    def _drape(self, uv_m) -> dict:
+        self.sim.set_pattern(uv_m)
         t0 = time.perf_counter()
         res = self.sim.solve(self.xtilde, tolerance=self.tolerance)
         return {"ease_cm": self._ease(self.target_body, res.x, self.mesh.triangles),
@@ -172,6 +184,10 @@ def run_case(data: Path, garment: str, body: str, base_id: str, methods: list[st
             unchanged.update(drapes.ease())
             if scaled.get("ok"):
                 scaled.update(drapes.ease(scaled["ratios"]["sx"], scaled["ratios"]["sy"]))
+            try:
+                case["draft"] = drapes.draft_ease(truth)
+            except Exception as exc:
+                case["draft"] = {"ease_note": f"not measured: {type(exc).__name__}: {exc}"}
         except Exception as exc:
             note = f"not measured: {type(exc).__name__}: {exc}"
             unchanged["ease_note"] = scaled["ease_note"] = note
@@ -202,9 +218,15 @@ def run_case(data: Path, garment: str, body: str, base_id: str, methods: list[st
         case["methods"][name] = out
 
     case["base_ease_cm"] = base_ease
+    draft_ease = (case.get("draft") or {}).get("ease_cm")
+    if base_ease is not None and draft_ease:
+        case["draft"]["ease_error"] = ease_errors(base_ease, draft_ease)
     for entry in (*case["methods"].values(), unchanged, scaled):
         if entry.get("ok") and base_ease is not None and "ease_cm" in entry:
             entry["ease_error"] = ease_errors(base_ease, entry["ease_cm"])
+        if entry.get("ok") and draft_ease and "ease_cm" in entry:
+            # against the ease the drafting system gave this body, which need not be the base's
+            entry["ease_vs_draft"] = ease_errors(draft_ease, entry["ease_cm"])
     case["methods"]["unchanged"] = unchanged
     case["methods"]["scaled"] = scaled
     case["seconds"] = time.perf_counter() - t_case

@@ -205,18 +205,40 @@ def ease_detail(res: dict) -> list[str]:
     return out
 
 
-def ease_levels(res: dict) -> list[str]:
-    """Median ease error per level over the cases whose garment goes around it there."""
+def _level_medians(entries, key: str) -> list[str]:
+    cells = []
+    for k in ("bust", "waist", "hip"):
+        v = [x for x in (((e.get(key) or {}).get("levels") or {}).get(k) for e in entries) if x is not None]
+        cells.append(f"{statistics.median(v):.2f} ({len(v)})" if v else "-")
+    return cells
+
+
+def ease_levels(res: dict, key: str = "ease_error") -> list[str]:
+    """Median ease error per level over the cases whose garment goes around it there:
+    against the base garment's ease (``ease_error``) or the draft's (``ease_vs_draft``); the
+    first table has the drafts' own row."""
     lv = ("bust", "waist", "hip")
     out = ["| method | " + " | ".join(f"{k} cm (cases)" for k in lv) + " |", "|---|" + "---:|" * len(lv)]
     for m in method_names(res):
-        cells = []
-        for k in lv:
-            v = [x for x in (((entry(c, m).get("ease_error") or {}).get("levels") or {}).get(k)
-                             for c in res["cases"] if _ok(entry(c, m))) if x is not None]
-            cells.append(f"{statistics.median(v):.2f} ({len(v)})" if v else "-")
-        out.append(f"| {m} | " + " | ".join(cells) + " |")
+        ents = [entry(c, m) for c in res["cases"] if _ok(entry(c, m))]
+        out.append(f"| {m} | " + " | ".join(_level_medians(ents, key)) + " |")
+    drafts = [c["draft"] for c in res["cases"] if c.get("draft", {}).get("ease_cm")]
+    if key == "ease_error" and drafts:
+        out.append("| the drafts themselves | " + " | ".join(_level_medians(drafts, key)) + " |")
     return out
+
+
+def ease_against_drafts(res: dict) -> list[str]:
+    """The ease error against the draft's own ease on the target (the draft put on the base mesh
+    and draped from the same start), where the run measured it."""
+    n = sum(1 for c in res["cases"] if c.get("draft", {}).get("ease_cm"))
+    if not n:
+        return []
+    return ["The drafting systems do not hold the base garment's ease: their own row above is "
+            "each draft draped on its body, scored the same way. Against the ease each draft "
+            f"gives its body ({n} cases where the draft's panels have the base's edges, so it "
+            "can be put on the base mesh): |ease on the target - the draft's ease on the target|, "
+            "median per level:", "", *ease_levels(res, "ease_vs_draft"), ""]
 
 
 def failures(res: dict) -> list[str]:
@@ -338,6 +360,7 @@ def markdown(res: dict, title_note: str | None, plot_rel: str, notes: str | None
         "hand grading.", "", "## Summary", "", *summary(res), "",
         "Median ease error per level, over the cases whose garment goes around that level:", "",
         *ease_levels(res), "",
+        *ease_against_drafts(res),
         f"![max landmark error per case]({plot_rel})", "",
         "## Per garment family", "", *family_table(res), "",
         "*Change captured* (`seamfit.pattern.compare.change_captured`): the least-squares factor c "

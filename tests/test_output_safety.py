@@ -224,8 +224,12 @@ def _start(argv, tmp_path):
     here = str(Path(seamfit.__file__).resolve().parents[1])
     env = dict(os.environ, SEAMFIT_CACHE_DIR=str(tmp_path / "cache"), PYTHONUNBUFFERED="1",
                PYTHONPATH=os.pathsep.join([here] + sys.path))
+    # A shell without job control starts background commands (CI scripts, `pytest &`) with
+    # SIGINT ignored, and an ignored signal stays ignored across exec: give the child the
+    # default a user's Ctrl-C meets, or it would rightly ignore the test's SIGINT too.
     return subprocess.Popen([sys.executable, "-m", "seamfit", *map(str, argv)], env=env, cwd=tmp_path,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def _interrupt_when_computing(proc, parent: Path, name: str, sig) -> tuple[int, str]:

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from accuracy_case import body_file, measurements_cm  # noqa: E402
+from accuracy_case import body_file, captured, measurements_cm  # noqa: E402
 
 from seamfit.body import load_body  # noqa: E402
 from seamfit.pattern import baseline_errors, landmark_errors, load_pattern  # noqa: E402
@@ -80,6 +80,7 @@ def main(argv=None) -> int:
                 row["level"], row["level_mean"], row["level_worst"] = rep.max_cm, rep.mean_cm, list(rep.worst)
                 # signed size bias: result minus truth, per panel (does the start under-grow?)
                 row["level_area_pct"] = {n: q.area_diff_pct for n, q in rep.panels.items()}
+                row.update({f"level_{k}": v for k, v in captured(start, base, truth).items()})
             except Exception as exc:  # noqa: BLE001 - a benchmark records, never stops
                 row["level"], row["error"] = None, f"{type(exc).__name__}: {exc}"
             row["seconds"] = time.perf_counter() - t0

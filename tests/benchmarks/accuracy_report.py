@@ -282,13 +282,21 @@ def worst_cases(res: dict, method: str, k: int = 5) -> list[str]:
 
 # ----------------------------------------------------------------------------- page
 
+def _blas(mc: dict) -> str:
+    """', OpenBLAS kernels numpy X / SciPy Y' where the run recorded them."""
+    b = mc.get("blas") or {}
+    if not (b.get("numpy") or b.get("scipy")):
+        return ""
+    return f", OpenBLAS kernels numpy {b.get('numpy', '?')} / SciPy {b.get('scipy', '?')}"
+
+
 def provenance(res: dict) -> list[str]:
     out = []
     for m in res["metas"]:
         mc = m.get("machine", {})
         out.append(f"* `{m['file']}`: {'**subset** of the cases' if m.get('subset') else 'all cases'}, "
                    f"methods {', '.join(m.get('methods', []))}; machine {mc.get('cpu', '?')}, {mc.get('cores', '?')} "
-                   f"cores, Python {mc.get('python', '?')}; jobs {m.get('jobs')} x "
+                   f"cores, Python {mc.get('python', '?')}{_blas(mc)}; jobs {m.get('jobs')} x "
                    f"{m.get('threads_per_job')} threads; commit {m.get('commit')}"
                    + (" (native/ modified)" if m.get("native_modified") else "")
                    + (f", sources {m['source_digest']}" if m.get("source_digest") else "")

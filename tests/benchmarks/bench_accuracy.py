@@ -150,7 +150,36 @@ def machine() -> dict:
     except OSError:
         pass
     return {"host": platform.node(), "cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
-            "platform": platform.platform()}
+            "platform": platform.platform(), "blas": blas_kernels()}
+
+
+def blas_kernels() -> dict:
+    """The OpenBLAS kernel set numpy's and SciPy's libraries run (their own choice for the
+    CPU, or OPENBLAS_CORETYPE's): results move by up to 0.3 cm between kernel sets
+    (docs/method.md, "The drafts' own ease, and the CPU's BLAS kernels"), so a run records them."""
+    import ctypes
+    import numpy  # noqa: F401 - loads its OpenBLAS
+    import scipy.linalg  # noqa: F401 - loads SciPy's
+    out = {"OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE")}
+    try:
+        libs = sorted({line.split()[-1] for line in Path("/proc/self/maps").read_text().splitlines()
+                       if "openblas" in line.lower() and line.split()[-1].startswith("/")})
+    except OSError:
+        return out
+    for path in libs:
+        owner = "scipy" if "scipy" in Path(path).name else "numpy"
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for name in ("openblas_get_corename64_", "openblas_get_corename",
+                     "scipy_openblas_get_corename64_", "scipy_openblas_get_corename"):
+            fn = getattr(lib, name, None)
+            if fn is not None:
+                fn.restype = ctypes.c_char_p
+                out[owner] = fn().decode()
+                break
+    return out
 
 
 def git_commit() -> str | None:

@@ -167,7 +167,10 @@ def blas_kernels() -> dict:
     except OSError:
         return out
     for path in libs:
-        owner = "scipy" if "scipy" in Path(path).name else "numpy"
+        # numpy 2's library is called scipy_openblas too: the folder says whose it is
+        parts = Path(path).parts
+        owner = next((name for name in ("numpy", "scipy") for part in parts
+                      if part in (name, f"{name}.libs")), Path(path).name)
         try:
             lib = ctypes.CDLL(path)
         except OSError:

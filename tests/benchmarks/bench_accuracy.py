@@ -162,15 +162,13 @@ def blas_kernels() -> dict:
     import scipy.linalg  # noqa: F401 - loads SciPy's
     out = {"OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE")}
     try:
-        libs = sorted({line.split()[-1] for line in Path("/proc/self/maps").read_text().splitlines()
-                       if "openblas" in line.lower() and line.split()[-1].startswith("/")})
+        mapped = {line.split()[-1] for line in Path("/proc/self/maps").read_text().splitlines()}
     except OSError:
         return out
-    for path in libs:
+    for path in sorted(p for p in mapped if p.startswith("/") and "openblas" in p.lower()):
         # numpy 2's library is called scipy_openblas too: the folder says whose it is
         parts = Path(path).parts
-        owner = next((name for name in ("numpy", "scipy") for part in parts
-                      if part in (name, f"{name}.libs")), Path(path).name)
+        owner = next((n for n in ("numpy", "scipy") if n in parts or f"{n}.libs" in parts), Path(path).name)
         try:
             lib = ctypes.CDLL(path)
         except OSError:

@@ -743,7 +743,8 @@ def grade_output(inp: RunInputs, res) -> GradeOutput:
         converged=bool(r["converged"]), method=str(r.get("method", inp.method)), message=str(r["message"]),
         fit={k: float(v) for k, v in ease.items() if v is not None}, report=r, result=res,
         base_name=inp.base.name, target_name=inp.target.name, target_body=body_object(inp.target),
-        warnings=_fit_check(inp, r), registration=registration_done(inp.base, inp.target))
+        warnings=[*_fit_check(inp, r), *((r.get("ease_cm") or {}).get("losses") or [])],
+        registration=registration_done(inp.base, inp.target))
 
 
 def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | None = None,

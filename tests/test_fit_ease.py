@@ -9,7 +9,7 @@ import pytest
 
 from seamfit.body import body_measurements, load_body
 from seamfit.body.measure import _Slicer
-from seamfit.opt.fit import ease_report, mesh_cross_section
+from seamfit.opt.fit import EASE_LOSS_CM, ease_losses, ease_report, mesh_cross_section
 
 from opt_synthetic import merge
 
@@ -86,3 +86,20 @@ def test_the_bust_s_ease_is_taken_over_the_bust_points():
     assert ease_levels(replace(body, vertices=v))["bust"] == pytest.approx(apex - 0.02, abs=1e-12)
     other = replace(body, faces=np.asarray(body.faces)[::-1].copy())
     assert ease_levels(other)["bust"] == measured["bust"]
+
+
+def test_a_level_that_lost_its_ease_is_named_with_the_numbers():
+    base = {"bust": 3.11, "waist": 24.3, "hip": None}
+    # a t-shirt graded two sizes up keeping 0.45 cm at the bust: tighter than its base
+    (line,) = ease_losses(base, {"bust": 0.45, "waist": 24.7, "hip": None})
+    assert "at the bust" in line and "+0.5 cm of ease" in line and "+3.1 cm" in line
+    # looser, or a few millimetres off, or a flare that keeps most of its ease: nothing to say
+    assert ease_losses(base, {"bust": 4.7, "waist": 30.0, "hip": None}) == []
+    assert ease_losses({"hip": 0.73}, {"hip": 0.2}) == []
+    assert ease_losses({"hip": 17.0}, {"hip": 12.9}) == []
+    # ease gone below the body's girth, by more than EASE_LOSS_CM in all
+    (line,) = ease_losses({"hip": 0.73}, {"hip": 0.73 - EASE_LOSS_CM - 0.05})
+    assert "at the hip" in line and "-0.3 cm of ease" in line
+    # a level either drape does not reach is not compared
+    assert ease_losses({"bust": 3.0, "hip": None}, {"bust": None, "hip": 1.0}) == []
+    assert ease_losses(None, None) == []

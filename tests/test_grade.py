@@ -174,3 +174,19 @@ def test_a_negative_stop_move_is_refused_before_any_work(tmp_path, capsys):
     assert code == 2
     assert "--stop-move-mm" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_the_ease_is_printed_and_a_lost_fit_is_a_warning(tmp_path, capsys, monkeypatch):
+    # The rule is tested in test_fit_ease; here, that its lines reach the report and the user.
+    import seamfit.opt.output as output
+    monkeypatch.setattr(output, "ease_losses", lambda base, result: ["LOST AT THE HIP"])
+    out = tmp_path / "out"
+    code = main(["grade", str(PATTERN), "--base-body", str(B0), "--target-body", str(B1), "--out", str(out),
+                 "--edge-length", "5", "--sdf-spacing", "0.01", "--max-iterations", "1", "--checkpoint-every", "1",
+                 "--no-picture"])
+    err = capsys.readouterr().err
+    rep = json.loads((out / "report.json").read_text())
+    assert code == 0 and rep["ease_cm"]["losses"] == ["LOST AT THE HIP"]
+    assert "seamfit grade: warning: LOST AT THE HIP" in err
+    hip = rep["ease_cm"]["result"]["hip"]
+    assert f"ease bust / waist / hip: - / - / {hip:+.1f} cm on women_size10" in err

@@ -316,6 +316,8 @@ def write_graded(args, result, progress, base_pattern, base_body, target_body, t
         progress.close()
     if (report.get("sdf") or {}).get("warning"):  # even with -q: collisions may have been missed
         print(f"seamfit grade: warning: {report['sdf']['warning']}", file=sys.stderr)
+    for line in (report.get("ease_cm") or {}).get("losses") or []:    # even with -q: the fit changed
+        print(f"seamfit grade: warning: {line}", file=sys.stderr)
     for which in ("base", "target"):   # a body field the GPU handed to the CPU (slower, not wrong)
         note = ((report.get("sdf") or {}).get(which) or {}).get("device_note")
         if note and not args.quiet:
@@ -340,6 +342,10 @@ def write_graded(args, result, progress, base_pattern, base_body, target_body, t
                   f"{r['seconds_total']:.1f} s; max pattern change {r['max_displacement_mm']:.1f} mm", file=sys.stderr)
         _print_time_split(r)
         print(progress.stages_line(), file=sys.stderr)
+        ease = r.get("ease_cm") or {}
+        if any(v is not None for v in (ease.get("result") or {}).values()):
+            print(f"ease bust / waist / hip: {_ease_cells(ease.get('result'))} cm on {target_body.name} "
+                  f"(base garment on {base_body.name}: {_ease_cells(ease.get('base'))} cm)", file=sys.stderr)
         if "accuracy" in r:
             acc = r["accuracy"]
             scaled = acc["proportional_scaling"]
@@ -347,6 +353,10 @@ def write_graded(args, result, progress, base_pattern, base_body, target_body, t
             print(f"landmark error vs truth: max {acc['graded']['max_cm']:.2f} cm "
                   f"(unchanged base: {acc['base_unchanged']['max_cm']:.2f} cm{scaled})", file=sys.stderr)
     return report
+
+
+def _ease_cells(ease: dict | None) -> str:
+    return " / ".join("-" if (ease or {}).get(k) is None else f"{ease[k]:+.1f}" for k in ("bust", "waist", "hip"))
 
 
 def _scaled_errors(base_pattern, base_body, target_body, truth_pattern) -> dict:

@@ -24,6 +24,10 @@ preload.want("scipy.spatial", first=True)
 # (m) outside its section's hull: cloth rests a few mm out, a missing panel leaves
 # centimetres of body uncovered.
 ENCLOSE_TOL_M = 0.01
+# A graded garment has lost the fit its base pattern gave at a tape level when it keeps
+# under half the base garment's ease there and at least this much less (cm): a tape's
+# reading moves by a few millimetres with the drape, a centimetre is felt when worn.
+EASE_LOSS_CM = 1.0
 
 
 def mesh_cross_section(x: np.ndarray, triangles: np.ndarray, z: float) -> np.ndarray:
@@ -136,4 +140,21 @@ def ease_report(body, x: np.ndarray, triangles: np.ndarray, levels: dict | None 
             continue
         gg, bg = garment_tape(slicer, x, triangles, z)
         out[name] = None if not (np.isfinite(gg) and np.isfinite(bg)) else round(100.0 * (gg - bg), 2)
+    return out
+
+
+def ease_losses(base: dict, result: dict) -> list[str]:
+    """One line per tape level where the graded garment (``result``, ease in cm on the
+    target body) keeps under half the base garment's ease on the base body (``base``) and
+    at least EASE_LOSS_CM less: tighter there than the base pattern on its own body. The
+    drafting systems keep a level's ease as a body grows, so such a level needs a pattern
+    maker's look; a garment that came out looser is not flagged."""
+    out = []
+    for name in ("bust", "waist", "hip"):
+        e0, e1 = (base or {}).get(name), (result or {}).get(name)
+        if e0 is None or e1 is None:
+            continue
+        if e0 - e1 >= EASE_LOSS_CM and e1 < 0.5 * e0:
+            out.append(f"the graded garment is tighter at the {name} than the base pattern on its body: "
+                       f"{e1:+.1f} cm of ease where the base garment has {e0:+.1f} cm")
     return out

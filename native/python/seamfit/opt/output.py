@@ -16,7 +16,7 @@ from ..pattern.markings import carry_markings
 from ..pattern.darts import true_darts
 from ..pattern.refit import refit_pattern
 from ..pattern.symmetry import find_symmetries, symmetrize, symmetry_report
-from .fit import ease_report
+from .fit import ease_losses, ease_report
 
 
 @dataclass
@@ -155,7 +155,7 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
         "symmetry": symmetry_report(refit.pattern, symmetries, symmetry_moves),
         "darts_trued_mm": {k: round(v, 3) for k, v in dart_moves.items()},
         "markings": markings,
-        "ease_cm": {"base": ease_base, "result": ease_result},
+        "ease_cm": {"base": ease_base, "result": ease_result, "losses": ease_losses(ease_base, ease_result)},
         "drape": {"max_sewing_gap_mm": float(gaps.max() * 1000) if len(gaps) else 0.0,
                   "min_phi_mm": float(phi.min() * 1000)},
         "base_drape": ctx.base_info,

@@ -75,6 +75,7 @@ def test_summary_table_has_ease_seams_and_time_per_size(run):
     for r in rows:
         rep = json.loads((out / r["folder"] / "report.json").read_text())
         assert r["ease_cm"] == rep["ease_cm"]["result"]
+        assert r["ease_losses"] == rep["ease_cm"]["losses"]   # each a warning line of the run
     lines = (out / "summary.csv").read_text().splitlines()
     assert lines[0].startswith("size,base,ease_bust_cm,ease_waist_cm,ease_hip_cm,seam_mismatch_max_mm")
     assert [ln.split(",")[0] for ln in lines[1:]] == summary["order"]

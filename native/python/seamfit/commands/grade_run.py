@@ -228,6 +228,9 @@ def _run(args, settings, base_pattern, base_body, targets, base_index, base_labe
     atomic_write_text(tmp / "summary.csv", _csv(summary))
     if not args.quiet:
         print(_table(summary), file=sys.stderr)
+    for r in summary["sizes"]:   # even with -q: a size that came out tighter than its base needs a look
+        for line in r.get("ease_losses") or []:
+            print(f"seamfit grade-run: warning: {r['size']}: {line}", file=sys.stderr)
     for j in run.jumps:          # even with -q: a size that jumps needs a look before cutting
         print(f"seamfit grade-run: warning: {j['panel']} {j['landmark']} moves back {j['back_mm']:.1f} mm from "
               f"{j['from']} to {j['to']} (out of size order)", file=sys.stderr)

@@ -150,6 +150,7 @@ def summary_row(label: str, report: dict, *, warm_from: Optional[str], seconds: 
     seams = [float(v) for v in (report.get("seam_mismatch_mm") or {}).values() if v is not None]
     ease = (report.get("ease_cm") or {}).get("result") or {}
     return {"size": label, "folder": folder, "ease_cm": dict(ease),
+            "ease_losses": list((report.get("ease_cm") or {}).get("losses") or []),
             "seam_mismatch_mm": {"max": round(max(seams), 4) if seams else None,
                                  "mean": round(float(np.mean(seams)), 4) if seams else None},
             "seconds": round(seconds, 2), "outer_iterations": report.get("outer_iterations"),

@@ -241,6 +241,28 @@ def ease_against_drafts(res: dict) -> list[str]:
             "median per level:", "", *ease_levels(res, "ease_vs_draft"), ""]
 
 
+def ease_flags(res: dict) -> list[str]:
+    """Where each method (and each draft) came out tighter than the base garment on the base
+    body, by the rule `seamfit grade` warns with (``seamfit.opt.fit.ease_losses``)."""
+    from seamfit.opt.fit import ease_losses
+
+    def flagged(e: dict, base: dict) -> list[str]:
+        return [lv for lv in ("bust", "waist", "hip")
+                if ease_losses({lv: base.get(lv)}, {lv: (e.get("ease_cm") or {}).get(lv)})]
+
+    rows = [(m, [(c, flagged(entry(c, m), c.get("base_ease_cm") or {})) for c in res["cases"] if _ok(entry(c, m))])
+            for m in method_names(res)]
+    rows.append(("the drafts themselves", [(c, flagged(c["draft"], c.get("base_ease_cm") or {}))
+                                           for c in res["cases"] if c.get("draft", {}).get("ease_cm")]))
+    out = ["| method | cases flagged | where (levels) |", "|---|---:|---|"]
+    for m, cases in rows:
+        hits = [f"{c['garment']} {c['body']} ({', '.join(lv)})" for c, lv in cases if lv]
+        out.append(f"| {m} | {len(hits)} of {len(cases)} | {'; '.join(hits) or '-'} |")
+    return ["Levels where the garment on the target keeps under half the base garment's ease and at "
+            "least 1 cm less (`seamfit.opt.fit.ease_losses`, the rule `seamfit grade` warns with: "
+            "tighter there than the base pattern on its own body):", "", *out, ""]
+
+
 def failures(res: dict) -> list[str]:
     out = []
     for c in res["cases"]:
@@ -369,6 +391,7 @@ def markdown(res: dict, title_note: str | None, plot_rel: str, notes: str | None
         "Median ease error per level, over the cases whose garment goes around that level:", "",
         *ease_levels(res), "",
         *ease_against_drafts(res),
+        *ease_flags(res),
         f"![max landmark error per case]({plot_rel})", "",
         "## Per garment family", "", *family_table(res), "",
         "*Change captured* (`seamfit.pattern.compare.change_captured`): the least-squares factor c "

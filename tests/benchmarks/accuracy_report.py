@@ -243,12 +243,11 @@ def ease_against_drafts(res: dict) -> list[str]:
 
 def ease_flags(res: dict) -> list[str]:
     """Where each method (and each draft) came out tighter than the base garment on the base
-    body, by the rule `seamfit grade` warns with (``seamfit.opt.fit.ease_losses``)."""
-    from seamfit.opt.fit import ease_losses
+    body, by the rule `seamfit grade` warns with (``seamfit.opt.fit.tighter_levels``)."""
+    from seamfit.opt.fit import tighter_levels
 
     def flagged(e: dict, base: dict) -> list[str]:
-        return [lv for lv in ("bust", "waist", "hip")
-                if ease_losses({lv: base.get(lv)}, {lv: (e.get("ease_cm") or {}).get(lv)})]
+        return tighter_levels(base, e.get("ease_cm") or {})
 
     rows = [(m, [(c, flagged(entry(c, m), c.get("base_ease_cm") or {})) for c in res["cases"] if _ok(entry(c, m))])
             for m in method_names(res)]
@@ -259,7 +258,7 @@ def ease_flags(res: dict) -> list[str]:
         hits = [f"{c['garment']} {c['body']} ({', '.join(lv)})" for c, lv in cases if lv]
         out.append(f"| {m} | {len(hits)} of {len(cases)} | {'; '.join(hits) or '-'} |")
     return ["Levels where the garment on the target keeps under half the base garment's ease and at "
-            "least 1 cm less (`seamfit.opt.fit.ease_losses`, the rule `seamfit grade` warns with: "
+            "least 1 cm less (`seamfit.opt.fit.tighter_levels`, the rule `seamfit grade` warns with: "
             "tighter there than the base pattern on its own body):", "", *out, ""]
 
 

@@ -143,18 +143,22 @@ def ease_report(body, x: np.ndarray, triangles: np.ndarray, levels: dict | None 
     return out
 
 
-def ease_losses(base: dict, result: dict) -> list[str]:
-    """One line per tape level where the graded garment (``result``, ease in cm on the
-    target body) keeps under half the base garment's ease on the base body (``base``) and
-    at least EASE_LOSS_CM less: tighter there than the base pattern on its own body, which
-    wants a pattern maker's look before cutting (of the shared drafts themselves, 2 in 48
-    come out so). A garment that came out looser is not flagged."""
+def tighter_levels(base: dict, result: dict) -> list[str]:
+    """The tape levels (bust, waist, hip) where the graded garment (``result``, ease in cm on
+    the target body) keeps under half the base garment's ease on the base body (``base``)
+    and at least EASE_LOSS_CM less: tighter there than the base pattern on its own body,
+    which wants a pattern maker's look before cutting (of the shared drafts themselves, 2 in
+    48 come out so). A garment that came out looser is not flagged."""
     out = []
     for name in ("bust", "waist", "hip"):
         e0, e1 = (base or {}).get(name), (result or {}).get(name)
-        if e0 is None or e1 is None:
-            continue
-        if e0 - e1 >= EASE_LOSS_CM and e1 < 0.5 * e0:
-            out.append(f"the graded garment is tighter at the {name} than the base pattern on its body: "
-                       f"{e1:+.1f} cm of ease where the base garment has {e0:+.1f} cm")
+        if e0 is not None and e1 is not None and e0 - e1 >= EASE_LOSS_CM and e1 < 0.5 * e0:
+            out.append(name)
     return out
+
+
+def ease_losses(base: dict, result: dict) -> list[str]:
+    """One line for the user per level of ``tighter_levels``, with both eases."""
+    return [f"the graded garment is tighter at the {name} than the base pattern on its body: "
+            f"{result[name]:+.1f} cm of ease where the base garment has {base[name]:+.1f} cm"
+            for name in tighter_levels(base, result)]

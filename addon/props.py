@@ -299,7 +299,7 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
                                      description="Simulation iterations per outer iteration of the grading")
     exact_every: IntProperty(name="M (exact every)", default=32, min=1, soft_max=256,
                              description="Inexact outer iterations between two exact ones")
-    iterations: IntProperty(name="Outer iterations", default=256, min=1, soft_max=4096,
+    iterations: IntProperty(name="Outer iterations", default=128, min=1, soft_max=4096,
                             description="Most outer iterations of the grading")
     device: EnumProperty(name="Device", default="AUTO", items=[
         ("AUTO", "Auto", "The GPU for large garments when one is present, otherwise the CPU"),

@@ -194,7 +194,7 @@ def plan_grading(settings=None, n_vertices: int | None = None, *, pattern=None, 
     elif getattr(settings, "start", "level") == "level":
         seconds["level scaling"] = _cost("level scaling", n, "cpu")
     method = getattr(settings, "method", "adjoint")
-    iterations = int(getattr(settings, "max_outer_iterations", 256))
+    iterations = int(getattr(settings, "max_outer_iterations", 128))
     every = 1 if method == "fixed-point" else max(int(getattr(settings, "checkpoint_every", 32)), 1)
     t_it = 0.0 if method == "fixed-point" else _cost("t_iteration", n, dev)
     # The model's outer iterations were measured at S = 8 simulation iterations each; half

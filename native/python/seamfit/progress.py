@@ -173,15 +173,15 @@ def plan_grading(settings=None, n_vertices: int | None = None, *, pattern=None, 
         coarse_seconds = sum(plan_grading(coarse_settings(settings), max(int(n * scale), 10), device=device,
                                           tolerance=tolerance).seconds.values())
         settings = fine_settings(settings)
-    dev = device or getattr(settings, "device", "cpu")
+    dev = device or settings.device
     dev = "cuda" if dev == "cuda" else "cpu"
-    spacing = max(float(getattr(settings, "sdf_spacing", 0.0025)), 1e-4)
+    spacing = max(float(settings.sdf_spacing), 1e-4)
     nodes = 2 * _FIELD_NODES_AT_5MM * (0.005 / spacing) ** 3
     seconds = {**({"coarse grading": coarse_seconds} if coarse_seconds else {}), "meshing": _cost("meshing", n, dev),
                "body fields": _FIELD_SECONDS_PER_MNODE * nodes / 1e6,
                "base drape": _cost("base drape", n, dev), "transfer": _cost("transfer", n, dev),
                "initial drapes": _cost("initial drapes", n, dev)}
-    if not getattr(settings, "drapes_base_pattern", True):
+    if not settings.drapes_base_pattern:
         # The model holds the unchanged pattern's drape on the target too, which only the
         # report asks for: 1.4 of the 4.8 s of a 60K-triangle grading's initial drapes.
         seconds["initial drapes"] *= 1.0 - 1.4 / 4.8
@@ -191,19 +191,19 @@ def plan_grading(settings=None, n_vertices: int | None = None, *, pattern=None, 
         seconds["initial drapes"] *= 1.4 / 4.8
         if settings.max_outer_iterations == 0:
             seconds["base drape"] = 0.0
-    elif getattr(settings, "start", "level") == "level":
+    elif settings.start == "level":
         seconds["level scaling"] = _cost("level scaling", n, "cpu")
-    method = getattr(settings, "method", "adjoint")
-    iterations = int(getattr(settings, "max_outer_iterations", 128))
-    every = 1 if method == "fixed-point" else max(int(getattr(settings, "checkpoint_every", 32)), 1)
+    method = settings.method
+    iterations = int(settings.max_outer_iterations)
+    every = 1 if method == "fixed-point" else max(int(settings.checkpoint_every), 1)
     t_it = 0.0 if method == "fixed-point" else _cost("t_iteration", n, dev)
     # The model's outer iterations were measured at S = 8 simulation iterations each; half
     # of their time is taken to scale with S (the rest is the gradient).
-    t_it *= max(getattr(settings, "inner_iterations", 8), 1) / 8 * 0.5 + 0.5
+    t_it *= max(settings.inner_iterations, 1) / 8 * 0.5 + 0.5
     plan = Plan(seconds=seconds, iterations=iterations, checkpoint_every=every, t_iteration=t_it,
                 order=STAGES if coarse_edge else STAGES[1:],
                 t_checkpoint=_cost("t_checkpoint", n, dev),
-                time_budget_s=float(getattr(settings, "time_budget_s", 0.0)), tolerance=float(tolerance),
+                time_budget_s=float(settings.time_budget_s), tolerance=float(tolerance),
                 # the fixed point has no backtracking: each iteration is one drape
                 backtrack_rate=0.0 if method == "fixed-point" else BACKTRACK_RATE)
     seconds["optimizing"] = plan.search_seconds()

@@ -108,14 +108,15 @@ def add_grade_options(p, *, truth: bool) -> None:
     p.add_argument("--stop-move-mm", metavar="MM", type=float, default=d.stop_move_mm,
                    help=f"stop once a checkpoint moved no pattern point more than MM since the last "
                         f"one (default {d.stop_move_mm}; 0: run to the objective's own stop or the budget)")
-    p.add_argument("--time-budget", metavar="S", type=float, default=0.0, help="stop after S seconds (default: none)")
+    p.add_argument("--time-budget", metavar="S", type=float, default=d.time_budget_s,
+                   help="stop after S seconds (default: none)")
     p.add_argument("--report-base-pattern", action="store_true", default=d.evaluate_base_pattern,
                    help="also drape the unchanged base pattern on the target body and report its objective "
                         "(objective_base_pattern; one more drape)")
     if truth:
         p.add_argument("--truth", metavar="PATTERN", type=Path, default=None,
                        help="a pattern drafted for the target body: report landmark errors against it")
-    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto",
+    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default=d.device,
                    help="where the grading loop runs (default auto: the GPU when one is present and the garment "
                         "is large enough to pay); cuda fails at once with the reason when no GPU or CUDA build "
                         "is present")

@@ -37,8 +37,8 @@ def coarse_edge_for(settings) -> float:
     """The coarse level's edge (cm) for ``settings``, or 0 where the mesh is graded
     directly: the adjoint method on a mesh at least COARSENING times finer than
     ``settings.coarse_edge_length_cm`` (0: never)."""
-    coarse = float(getattr(settings, "coarse_edge_length_cm", 0.0) or 0.0)
-    if coarse <= 0 or getattr(settings, "method", "adjoint") != "adjoint":
+    coarse = float(settings.coarse_edge_length_cm or 0.0)
+    if coarse <= 0 or settings.method != "adjoint":
         return 0.0
     return coarse if COARSENING * float(settings.edge_length_cm) <= coarse + 1e-9 else 0.0
 

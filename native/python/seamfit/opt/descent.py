@@ -29,7 +29,7 @@ def _on_gpu(ctx) -> bool:
     """Whether the search's state can stay on the GPU: its simulator and adjoint run there
     (the other pieces take GPU arrays on either device)."""
     return (ctx.adjoint.device == "cuda" and ctx.sim.settings.device == "cuda"
-            and getattr(ctx.settings, "device_state", True))
+            and ctx.settings.device_state)
 
 
 # Real gradings start at objectives of order 1 to 1e3; one this small is floating-point

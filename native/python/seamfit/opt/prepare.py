@@ -27,7 +27,7 @@ from .regularizers import Regularizers
 from .coarse_start import carry_pattern
 from .level_scale import level_scaled_pattern, measure_ahead
 from .seam import SeamLength
-from .sdf_region import (GARMENT_REGION_MARGIN, body_field, garment_outside_field, placement_z_range,
+from .sdf_region import (body_field, garment_outside_field, placement_z_range,
                          resolve_sdf_region)
 from .transfer import transfer_garment
 
@@ -166,22 +166,22 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
 
     check_pattern(base_pattern)
     preload.want("scipy.optimize")      # the curve refit, at the end (seamfit.preload)
-    if getattr(settings, "start", "level") == "level":
+    if settings.start == "level":
         # The level scaling measures both bodies right after the fields (0.1-0.3 s each)
         preload.want(functools.partial(measure_ahead, base_body, target_body), first=True)
     tell(stage="mesh")
     mesh = once("mesh", lambda: build_sewn_mesh(base_pattern, edge_length_cm=settings.edge_length_cm))
     # Where the simulations and the adjoint solve run: auto takes the device this machine
     # was measured to run the simulator faster on at this size (seamfit.device).
-    device_choice = choose_device(getattr(settings, "device", "auto"), problem_size=int(mesh.n_vertices))
+    device_choice = choose_device(settings.device, problem_size=int(mesh.n_vertices))
     device = device_choice["device"]
     if device != sim_settings.device:
         sim_settings = replace(sim_settings, device=device)
     tell(stage="sdf")
     # Each body's field over its whole box, or cut to the garment's height band where that
     # grid would be too large (sdf_region; docs/grading.md, "The body fields' region").
-    region = getattr(settings, "sdf_region", "auto")
-    margin = getattr(settings, "sdf_region_margin", GARMENT_REGION_MARGIN)
+    region = settings.sdf_region
+    margin = settings.sdf_region_margin
     base_region = resolve_sdf_region(region, base_body, settings.sdf_spacing)
     target_region = resolve_sdf_region(region, target_body, settings.sdf_spacing)
     base_sdf, base_field = once("base_field", lambda: body_field(
@@ -205,7 +205,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     else:
         xbar, base_info = once("base_drape", lambda: base_drape(
             mesh, base_pattern, base_body, base_sdf, fabric, sim_settings, progress=drape_progress,
-            accept_unsettled=getattr(settings, "accept_unsettled_base", False)))
+            accept_unsettled=settings.accept_unsettled_base))
     problem = garment_outside_field(base_sdf, base_field, xbar, "base", "at the end of the base drape")
     if problem:
         if not base_info.get("cached") and "key" in base_info:
@@ -233,7 +233,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     if coarse is not None:
         theta_level = param.theta_of(carry_pattern(coarse.mesh, coarse.pattern_m, mesh))
         start = {"from": "coarse level", "coarse_edge_length_cm": float(coarse.mesh.edge_length_cm)}
-    elif getattr(settings, "start", "level") == "level":
+    elif settings.start == "level":
         tell(stage="level scaling")
         p_level, info = level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, return_info=True)
         theta_level = param.theta_of(p_level)
@@ -245,10 +245,10 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     # R^fix shapes the preconditioner; in f it would pull the pattern back to the base
     # (docs/grading.md, "R^fix in the preconditioner only").
     regs = Regularizers(param, strengths.fix, strengths.cur,
-                        objective_fix=None if getattr(settings, "fix_in_objective", True) else 0.0,
+                        objective_fix=None if settings.fix_in_objective else 0.0,
                         anchor=theta_level)
     seam = SeamLength(param, mesh, strengths.seam)
-    if seam.active and getattr(settings, "seam_in_preconditioner", True):
+    if seam.active and settings.seam_in_preconditioner:
         regs.add_to_preconditioner(seam.gauss_newton())
     if device == "cuda":
         # R^fix + R^cur, R^seam and P^-1 too; P^-1 stays on the CPU, with the reason in
@@ -263,8 +263,8 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     # An unconverged GPU adjoint solve at a state within 10x the exact tolerance falls
     # back to the CPU; further out it keeps MINRES's iterate (seamfit.opt.adjoint).
     adjoint = AdjointSolver(sim, device=device, equilibrium_tolerance=10 * exact_tolerance,
-                            inexact_forcing=getattr(settings, "adjoint_forcing", 0.0),
-                            coarse=getattr(settings, "adjoint_coarse", 0) if device == "cuda" else 0)
+                            inexact_forcing=settings.adjoint_forcing,
+                            coarse=settings.adjoint_coarse if device == "cuda" else 0)
     ctx = GradeContext(
         base_pattern=base_pattern, base_body=base_body, target_body=target_body, settings=settings,
         strengths=strengths, mesh=mesh, base_sdf=base_sdf, target_sdf=target_sdf, xbar=xbar, xtilde=xtilde,

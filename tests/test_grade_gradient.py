@@ -6,7 +6,7 @@ import pytest
 from opt_synthetic import two_panels
 from seamfit.opt import CostSet, Parametrization, Regularizers, Strengths
 from seamfit.opt.adjoint import AdjointSolver
-from seamfit.opt.grade import _Problem
+from seamfit.opt.objective import Objective
 from seamfit.sim.model import Fabric, SimSettings, Simulator
 
 
@@ -28,7 +28,7 @@ def hanging_problem(psd):
     regs = Regularizers(param, strengths.fix, strengths.cur)
     costs = CostSet(mesh, x, strengths, xtilde=xtilde)
     adj = AdjointSolver(sim, psd=psd)
-    return mesh, sim, param, _Problem(param, regs, costs, sim, adj), x
+    return mesh, sim, param, Objective(param, regs, costs, sim, adj), x
 
 
 def total_objective(sim, param, prob, theta, x_start):

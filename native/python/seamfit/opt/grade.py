@@ -32,8 +32,7 @@ from .costs import Strengths
 from .descent import descend
 from .device_arrays import host
 from .initialize import initialize_pattern
-from .objective import Objective
-from .output import GradeResult, SearchOutcome, finish, remove_panel_rotations
+from .output import GradeResult, SearchOutcome, finish
 from .prepare import ProgressFn, base_drape, prepare
 from .presets import preset
 from .sdf_region import GARMENT_REGION_MARGIN, check_sdf_region, garment_outside_field
@@ -41,10 +40,6 @@ from .transfer import DEFAULT_BANDWIDTH
 
 METHODS = ("adjoint", "two-phase", "fixed-point")
 STARTS = ("base", "level")
-
-# Older names, kept for callers.
-_Problem = Objective
-_remove_panel_rotations = remove_panel_rotations
 
 __all__ = ["METHODS", "GradeResult", "GradeSettings", "ProgressFn", "base_drape", "grade"]
 

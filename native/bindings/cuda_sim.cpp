@@ -142,7 +142,7 @@ void bind_cuda_sim(py::module_& m) {
   py::class_<SimGpu>(m, "CudaSimulator",
                      "GPU mirror of a Simulator: force, energy and the Chebyshev solve on a CUDA device.")
       .def(py::init([](const Simulator& s, int device, int block, int lanes, int batch, bool use_graph,
-                       bool float_rest, bool fuse_control) {
+                       bool float_rest) {
              GpuOptions o;
              o.device = device;
              o.block = block;
@@ -150,12 +150,11 @@ void bind_cuda_sim(py::module_& m) {
              o.batch = batch;
              o.use_graph = use_graph;
              o.float_rest = float_rest;
-             o.fuse_control = fuse_control;
              return new SimGpu(s, o);
            }),
            py::arg("simulator"), py::arg("device") = 0, py::arg("block") = 128, py::arg("lanes") = 0,
            py::arg("batch") = 32,
-           py::arg("use_graph") = true, py::arg("float_rest") = false, py::arg("fuse_control") = false,
+           py::arg("use_graph") = true, py::arg("float_rest") = false,
            py::keep_alive<1, 2>())  // the CPU simulator must outlive its GPU copy
       .def("sync", &SimGpu::sync,
            "Bring the device up to the CPU simulator's model: what changed moves; a new pattern's rest state "

@@ -109,8 +109,6 @@ void bind_sim(py::module_& m) {
       .def_readwrite("newton_exact_first", &SolveSettings::newton_exact_first)
       .def_readwrite("newton_smoothing", &SolveSettings::newton_smoothing,
                      "Newton: block-Jacobi sweeps after each Newton step (0: pure Newton)")
-      .def_readwrite("momentum_restart", &SolveSettings::momentum_restart,
-                     "Chebyshev: drop momentum against the force: 0 never, 1 globally, 2 per vertex")
       .def_readwrite("precond_refresh", &SolveSettings::precond_refresh,
                      "Chebyshev (CPU and GPU): iterations between refreshes of the springs' Jacobi blocks")
       .def_readwrite("far_bound", &SolveSettings::far_bound,

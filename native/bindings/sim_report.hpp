@@ -33,7 +33,6 @@ inline pybind11::dict report_dict(const sim::SolveReport& r) {
   d["restarts"] = r.restarts;
   d["projections"] = r.projections;
   d["rejected_steps"] = r.rejected_steps;
-  d["momentum_restarts"] = r.momentum_restarts;
   d["final_rho"] = r.final_rho;
   d["final_alpha"] = r.final_alpha;
   d["linear_iterations"] = r.linear_iterations;

@@ -5,9 +5,8 @@
 // the evaluation of the new state (force, diagonal blocks, energy terms,
 // per-block partial sums) and a one-block control kernel that reduces the
 // partial sums in a fixed order and runs the solver's rules (energy checks,
-// restarts, rho and omega, stopping). The control step can instead run in the
-// evaluation's last block (GpuOptions::fuse_control); measured slower. A batch
-// of iterations is one CUDA graph launch; the host reads the control state
+// restarts, rho and omega, stopping). A batch of iterations is one CUDA graph
+// launch; the host reads the control state
 // once per batch, and after a stop the rest of the batch returns at once.
 // Per-vertex work is a gather over CSR incidence lists: no atomics in the
 // physics, and the sums are deterministic.
@@ -94,11 +93,9 @@ struct EvalArgs {
   double* part_eval = nullptr;  // per block: six energy terms and |f|^2
   const double* part_step = nullptr;
   int nb_step = 0;
-  unsigned int* arrivals = nullptr;  // blocks done with this evaluation
   double* upd_norm = nullptr;
   double* hist = nullptr;
   int new_cur = 0;              // the buffer that holds x
-  bool fuse = true;             // run the control step in the last block (else k_ctrl does)
 };
 
 // The solver's control step on the reduced sums, by one thread, on a local
@@ -115,9 +112,8 @@ __device__ void control_step(Ctrl* c, const double* sums, int new_cur, double* u
 // threads in flight, shorter dependent chains per thread); per-block partial
 // sums. Sample: sample the barrier field here (plain evaluations); in a solve
 // the step kernel has sampled it at x already, and this kernel, free of the
-// sampling code, needs far fewer registers. In a solve, the last block to
-// finish reduces every block's sums and runs the solver's control step, which
-// saves a kernel launch per iteration.
+// sampling code, needs far fewer registers. In a solve k_ctrl then reduces every
+// block's sums and runs the solver's control step.
 // In a solve the springs' share of the blocks follows SolveSettings::
 // precond_refresh as on the CPU: with c->reuse their Hessians are not computed
 // and the share stored at the last refresh is read instead; a refresh stores it
@@ -171,24 +167,9 @@ __global__ void __launch_bounds__(256) k_eval(DevModel<R> m, EvalArgs a) {
     acc[kTerms] = norm2(fv);
   }
   block_sum<kTerms + 1>(acc, a.part_eval + (kTerms + 1) * blockIdx.x);
-  if (!c || !a.fuse) return;
-  __shared__ bool last;
-  if (threadIdx.x == 0) {
-    __threadfence();  // this block's sums before its arrival
-    last = atomicAdd(a.arrivals, 1u) == gridDim.x - 1;
-  }
-  __syncthreads();
-  if (!last) return;
-  __threadfence();
-  __shared__ double sums[kSums];
-  reduce_parts(a.part_eval, gridDim.x, a.part_step, a.nb_step, sums);
-  if (threadIdx.x == 0) {
-    control_step(c, sums, a.new_cur, a.upd_norm, a.hist);
-    *a.arrivals = 0;
-  }
 }
 
-// The control step as a kernel of its own (GpuOptions::fuse_control false).
+// The control step: one block reduces the evaluation's and the step's partial sums.
 __global__ void __launch_bounds__(kCtrlThreads) k_ctrl(Ctrl* c, const double* pe, int nbe, const double* ps, int nbs,
                                                       int new_cur, double* upd_norm, double* hist) {
   if (c->done) return;
@@ -358,7 +339,7 @@ struct SimGpu::Impl {
   bool bar = false;
   sim::SimParams params;
   // Iteration state.
-  DevBuf xbuf[2], ck, f, D, Dsp, S, part_eval, part_step, ctrl, upd_norm, hist, sums, arrivals;
+  DevBuf xbuf[2], ck, f, D, Dsp, S, part_eval, part_step, ctrl, upd_norm, hist, sums;
   Ctrl* snap = nullptr;  // pinned host copies of the control state
   cudaGraphExec_t graph = nullptr;
   bool graph_dirty = true;
@@ -389,16 +370,14 @@ struct SimGpu::Impl {
     a.part_eval = part_eval.as<double>();
     a.part_step = part_step.as<double>();
     a.nb_step = nb_step;
-    a.arrivals = arrivals.as<unsigned int>();
     a.upd_norm = upd_norm.as<double>();
     a.hist = hist.as<double>();
     a.new_cur = new_cur;
-    a.fuse = opt.fuse_control;
     const int nb = int((int64_t(n) * L + opt.block - 1) / opt.block);
     if (c) k_eval<R, L, false><<<nb, opt.block, 0, stream>>>(m, a);
     else k_eval<R, L, true><<<nb, opt.block, 0, stream>>>(m, a);
     SF_CUDA(cudaGetLastError());
-    if (c && !opt.fuse_control) {
+    if (c) {
       k_ctrl<<<1, kCtrlThreads, 0, stream>>>(c, a.part_eval, nb, a.part_step, nb_step, new_cur, a.upd_norm, a.hist);
       SF_CUDA(cudaGetLastError());
     }
@@ -573,8 +552,6 @@ SimGpu::SimGpu(const sim::Simulator& s, const GpuOptions& opt) : opt_(opt), impl
   I.D.reserve(size_t(a.n) * sizeof(Sym3));
   I.part_eval.reserve(size_t(nb_eval) * (kTerms + 1) * sizeof(double));
   I.part_step.reserve(size_t(I.nb_step) * 2 * sizeof(double));
-  I.arrivals.reserve(sizeof(unsigned int));
-  SF_CUDA(cudaMemsetAsync(I.arrivals.p, 0, sizeof(unsigned int), I.stream));
   I.ctrl.reserve(sizeof(Ctrl));
   I.sums.reserve(kSums * sizeof(double));
   I.upd_norm.reserve(64 * sizeof(double));
@@ -1061,7 +1038,7 @@ size_t SimGpu::device_bytes() const {
                           &I.shirring64, &I.Q64, &I.mass64, &I.barrier_c64, &I.L_floored, &I.tri_area, &I.hinge_K,
                           &I.hinge_w, &I.rest_part,
                           &I.sdf_values, &I.xbuf[0], &I.xbuf[1], &I.ck, &I.f, &I.D, &I.Dsp, &I.S, &I.part_eval,
-                          &I.part_step, &I.ctrl, &I.upd_norm, &I.hist, &I.sums, &I.arrivals})
+                          &I.part_step, &I.ctrl, &I.upd_norm, &I.hist, &I.sums})
     s += b->bytes;
   return s;
 }

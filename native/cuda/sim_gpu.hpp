@@ -27,7 +27,6 @@ struct GpuOptions {
   int batch = 32;            // iterations per graph launch between host looks (even)
   bool use_graph = true;     // false: plain launches (for measuring launch overhead)
   bool float_rest = false;   // store rest lengths, shirring, Q, masses and barrier weights as float32
-  bool fuse_control = false;  // the control step in the evaluation's last block, not a kernel of its own
 };
 
 // Per-kernel device times (microseconds) and their byte counts.

@@ -6,9 +6,8 @@
 // The energy terms are those of native/core/sim/terms (one implementation per
 // term); the step is sim/jacobi_step.hpp; the control logic below mirrors
 // Simulator::solve_chebyshev (solvers.cpp) rule for rule (the lagged spring
-// blocks and bounded far steps included; SolveSettings::momentum_restart, off by
-// default, is the CPU's only), kept on the device so that the host only looks
-// in every few dozen iterations.
+// blocks and bounded far steps included), kept on the device so that the host
+// only looks in every few dozen iterations.
 #pragma once
 #include <cmath>
 #include <cstdint>

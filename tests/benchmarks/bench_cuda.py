@@ -150,8 +150,7 @@ def gpu_timings(d: Path, sizes, sdf):
         # A state mid-way through dressing: seams closing, barrier active.
         x_mid = CudaSimulator(sim).solve(mesh.x0, max_iterations=1500)[0]
         row["active_barrier_fraction"] = float(np.mean(sim.phi(x_mid, barrier_field=True) < sim.settings.barrier_distance))
-        for label, opts in (("graph", {}), ("nograph", {"use_graph": False}), ("f32", {"float_rest": True}),
-                            ("fused", {"fuse_control": True})):
+        for label, opts in (("graph", {}), ("nograph", {"use_graph": False}), ("f32", {"float_rest": True})):
             g = CudaSimulator(sim, **opts)
             g.solve(x_mid, max_iterations=64)  # warm-up, graph capture
             s = per_iteration(lambda n: g.solve(x_mid, max_iterations=n, sync=False), 1000, 5000)
@@ -333,15 +332,15 @@ def report(args) -> None:
     # Tables for docs/gpu_results.md.
     cpu = {r["size"]: r for r in res.get("cpu", [])}
     cdev = {r["size"]: r for r in (dev or {}).get("cpu", [])}
-    print("| triangles | vertices | GPU us/it | plain launches | control fused | lanes 1 / 2 / 4 / 8 | chosen | "
+    print("| triangles | vertices | GPU us/it | plain launches | lanes 1 / 2 / 4 / 8 | chosen | "
           "CPU us/it (16 threads) | dev box | GPU speed-up |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for r in gpu:
         c = cpu.get(r["size"], {}).get("cpu_us_per_iteration", float("nan"))
         dv = cdev.get(r["size"], {}).get("cpu_us_per_iteration", float("nan"))
         lanes = " / ".join(f"{r.get(f'gpu_us_per_iteration_lanes{L}', float('nan')):.1f}" for L in (1, 2, 4, 8))
         print(f"| {r['triangles']:,} | {r['vertices']:,} | {r['gpu_us_per_iteration_graph']:.1f} | "
-              f"{r['gpu_us_per_iteration_nograph']:.1f} | {r.get('gpu_us_per_iteration_fused', float('nan')):.1f} | {lanes} | {r.get('lanes_auto', '')} | {c:.0f} | {dv:.0f} | "
+              f"{r['gpu_us_per_iteration_nograph']:.1f} | {lanes} | {r.get('lanes_auto', '')} | {c:.0f} | {dv:.0f} | "
               f"{c / r['gpu_us_per_iteration_graph']:.0f}x |")
     bw = res.get("peak_copy_bytes_per_s") or float("nan")
     print(f"\ncopy bandwidth {bw / 1e12:.2f} TB/s")

@@ -68,9 +68,6 @@ struct SolveSettings {
   int progress_every = 50;   // callback interval (iterations)
   int history_every = 10;    // residual history interval (iterations)
   bool newton_exact_first = true;  // Newton: try the exact Hessian before the PSD one
-  // Chebyshev: drop momentum that runs against the force: 0 never (energy
-  // checks only), 1 whole garment (restart the sequence), 2 per vertex.
-  int momentum_restart = 0;
   // Newton: block-Jacobi sweeps after each Newton step (0: pure Newton).
   int newton_smoothing = 0;
   // Economies of the Chebyshev loop, CPU and GPU alike (the rules are shared,
@@ -94,7 +91,6 @@ struct SolveReport {
   int restarts = 0;          // Chebyshev restarts after an energy rise
   int projections = 0;       // vertices projected out of the body
   long rejected_steps = 0;   // vertex steps dropped by the barrier-safe step
-  long momentum_restarts = 0;  // gradient restarts of the Chebyshev sequence
   double final_rho = 0, final_alpha = 0;
   long linear_iterations = 0;  // Newton with an outside step solver: its iterations, all steps
   std::string message;

@@ -116,7 +116,6 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   int rises = 0;        // consecutive energy rises
   int good_checks = 0;  // consecutive checkpoints with falling energy
   double omega = 1.0;
-  bool fresh_seq = false;        // the Chebyshev sequence restarts at the next step
   std::vector<double> upd_norm;  // |dx| during warm-up, for the rho estimate
   // Beyond this phi (a margin past the barrier's reach) vertices skip the SDF.
   const double far = far_step_threshold(st.far_bound, params_.barrier_distance);
@@ -161,28 +160,10 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
       d[3 * v + 2] = dv.z;
       dn2 += norm2(dv);
     }
-    // Gradient restart (O'Donoghue and Candes 2015): momentum that runs
-    // against the force is dropped, globally (mode 1) or per vertex (mode 2).
-    bool restart_seq = false;
-    if (st.momentum_restart == 1 && k > warmup) {
-      double up = 0;
-#pragma omp parallel for reduction(+ : up) schedule(static) num_threads(threads_)
-      for (int i = 0; i < n3; ++i) up += f[i] * (xc[i] - xp[i]);
-      if (up < 0) {
-        restart_seq = true;
-        ++rep.momentum_restarts;
-      }
-    }
     if (k < warmup) {
       omega = 1.0;
       upd_norm.push_back(std::sqrt(dn2));
-    } else if (restart_seq) {
-      omega = 1.0;
-      std::copy(xc.begin(), xc.end(), xp.begin());
-      fresh_seq = true;
-    } else if (k == warmup || fresh_seq) {
-      fresh_seq = false;
-      if (k == warmup) {
+    } else if (k == warmup) {
       if (auto_rho) {
         // Power-iteration estimate from the second half of the warm-up.
         const int m = warmup / 2;
@@ -190,7 +171,6 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
         double est = (a > 0 && b > 0) ? std::pow(b / a, 1.0 / m) : 0.9;
         if (!std::isfinite(est)) est = 0.9;
         rho = std::max(rho, std::min(std::max(est, 0.5), 0.9995));
-      }
       }
       omega = 2.0 / (2.0 - rho * rho);
     } else {
@@ -202,9 +182,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
 #pragma omp parallel for reduction(+ : rejected) schedule(static) num_threads(threads_)
     for (int v = 0; v < n_; ++v) {
       const Vec3 xo = {xc[3 * v], xc[3 * v + 1], xc[3 * v + 2]};
-      Vec3 mom = {xc[3 * v] - xp[3 * v], xc[3 * v + 1] - xp[3 * v + 1], xc[3 * v + 2] - xp[3 * v + 2]};
-      if (st.momentum_restart == 2 && f[3 * v] * mom.x + f[3 * v + 1] * mom.y + f[3 * v + 2] * mom.z < 0)
-        mom = make_vec3(0, 0, 0);
+      const Vec3 mom = {xc[3 * v] - xp[3 * v], xc[3 * v + 1] - xp[3 * v + 1], xc[3 * v + 2] - xp[3 * v + 2]};
       Vec3 xn;
       SdfSample s = bar ? S[v] : SdfSample{};
       const int r = chebyshev_safe_step(xo, mom, {d[3 * v], d[3 * v + 1], d[3 * v + 2]}, omega, bar, sdf_, smooth,

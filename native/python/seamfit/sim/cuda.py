@@ -47,17 +47,15 @@ class CudaSimulator:
     block, lanes: threads per block, and threads per vertex in the force
         evaluation (0: 2 while that keeps it in one wave of resident blocks, else 1);
         tuning, see docs/gpu_results.md.
-    fuse_control: run the solver's control step in the last block of the force
-        evaluation instead of a kernel of its own (same rules; measured slower).
     """
 
     def __init__(self, simulator, *, device: int = 0, batch: int = 32, block: int = 128, lanes: int = 0,
-                 use_graph: bool = True, float_rest: bool = False, fuse_control: bool = False):
+                 use_graph: bool = True, float_rest: bool = False):
         require_cuda()
         self.simulator = simulator
         self._core_sim = simulator.core if hasattr(simulator, "core") else simulator
         self._gpu = core().CudaSimulator(self._core_sim, device=device, block=block, lanes=lanes, batch=batch,
-                                         use_graph=use_graph, float_rest=float_rest, fuse_control=fuse_control)
+                                         use_graph=use_graph, float_rest=float_rest)
         self._adjoint = None  # CudaAdjoint for Newton's steps, made on first use
         self._dfdp = None     # CudaDfdp, made on first use
         self.device_pattern_ahead = False  # a pattern set on the device alone, not yet on the CPU

@@ -81,7 +81,6 @@ class SimSettings:
     progress_every: int = 50
     history_every: int = 10
     threads: int = 0                   # OpenMP threads, 0 = automatic
-    momentum_restart: int = 0          # Chebyshev: 0 energy checks only, 1 global, 2 per-vertex gradient restart
     precond_refresh: int = 4           # Chebyshev (CPU and GPU): refresh the springs' Jacobi blocks every N iterations
     far_bound: bool = True             # Chebyshev (CPU and GPU): bound, not sample, steps beyond the barrier's reach
     device: str = "cpu"                # where solves run: "cpu" or "cuda" (docs/gpu.md)
@@ -360,7 +359,6 @@ class Simulator:
         st.check_every = int(s.check_every)
         st.progress_every = int(s.progress_every if st.method == 0 else 1)
         st.history_every = int(s.history_every)
-        st.momentum_restart = int(s.momentum_restart)
         st.precond_refresh = int(s.precond_refresh)
         st.far_bound = bool(s.far_bound)
         st.newton_smoothing = int(smoothing)
@@ -517,8 +515,7 @@ class Simulator:
         if merged is None:
             return rep
         out = dict(rep)
-        for k in ("iterations", "seconds", "restarts", "projections", "rejected_steps", "momentum_restarts",
-                  "linear_iterations"):
+        for k in ("iterations", "seconds", "restarts", "projections", "rejected_steps", "linear_iterations"):
             out[k] = merged.get(k, 0) + rep.get(k, 0)
         it0, t0 = merged["iterations"], merged["seconds"]
         out["history_iteration"] = list(merged["history_iteration"]) + [it0 + i for i in rep["history_iteration"]]

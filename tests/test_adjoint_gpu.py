@@ -145,53 +145,6 @@ def test_inexact_forcing_relaxes_the_tolerance_at_inexact_states_only(state):
     assert loose.relaxed == 1 and loose.last_report["estimate"] <= 1e-8
 
 
-def test_coarse_space_solves_the_same_system_in_fewer_iterations(state):
-    """The two-level preconditioner (block Jacobi plus a coarse correction over vertex
-    aggregates) solves the same shifted system to the same tolerance, with the same
-    gradient, in fewer MINRES iterations; its coarse matrix is kept across states and
-    rebuilt at an equilibrium state; the solve is deterministic."""
-    ctx, x, gx, gp = state
-    plain = AdjointSolver(ctx.sim, device="cuda", gpu_tolerance=1e-8)
-    two = AdjointSolver(ctx.sim, device="cuda", gpu_tolerance=1e-8, coarse=16, equilibrium_tolerance=1e-2)
-    g_plain = plain.pattern_gradient(x, gx, gp)
-    g_two = two.pattern_gradient(x, gx, gp)
-    rep = two.last_report
-    assert rep["converged"], rep["message"]
-    st = two.stats()
-    assert st["coarse_size"] >= 3 * 8 and st["coarse_builds"] == 1
-    H = ctx.sim.hessian(x)
-    shift = 1e-8 * float(np.mean(np.abs(H.diagonal())))
-    lam = two._lam.reshape(-1)
-    r = gx.reshape(-1) - (H @ lam + shift * lam)
-    assert np.linalg.norm(r) <= 1e-6 * np.linalg.norm(gx), np.linalg.norm(r) / np.linalg.norm(gx)
-    assert np.linalg.norm(g_two - g_plain) <= 1e-4 * np.linalg.norm(g_plain)
-    assert two.minres_iterations < plain.minres_iterations, (two.minres_iterations, plain.minres_iterations)
-    # An inexact state keeps the coarse matrix; an equilibrium state rebuilds it.
-    two._lam = None
-    two.pattern_gradient(x, gx, gp, residual=1.0)
-    assert two.coarse_builds == 1
-    lam_a = two._lam.copy()
-    two._lam = None
-    two.pattern_gradient(x, gx, gp, residual=1e-4)
-    assert two.coarse_builds == 2
-    assert np.array_equal(two._lam, lam_a)  # same state, same coarse matrix: the same bits
-
-
-def test_set_coarse_checks_its_arrays(state):
-    ctx, x, gx, gp = state
-    gpu = ctx.sim.cuda()._gpu
-    adj = core().CudaAdjoint(gpu)
-    n = ctx.sim.n_vertices
-    with pytest.raises(ValueError, match="one entry per vertex"):
-        adj.set_coarse(gpu, np.zeros(n - 1, np.int32), 1, np.eye(3))
-    with pytest.raises(ValueError, match="coarse inverse"):
-        adj.set_coarse(gpu, np.zeros(n, np.int32), 2, np.eye(3))
-    with pytest.raises(Exception, match="vertex 0 names aggregate 5"):
-        adj.set_coarse(gpu, np.full(n, 5, np.int32), 1, np.eye(3))
-    adj.set_coarse(gpu, np.zeros(n, np.int32), 0, np.zeros(0))
-    assert adj.coarse_size == 0
-
-
 def test_cuda_adjoint_without_a_gpu_fails_clearly():
     """Asking for the GPU adjoint where there is none raises DeviceError with the reason."""
     from seamfit.sim import Fabric, SimSettings, Simulator
@@ -213,5 +166,4 @@ if not GPU:
     del (test_gpu_adjoint_matches_the_direct_solve, test_gpu_adjoint_warm_start_and_determinism,
          test_persistent_kernel_and_kernel_graph_agree, test_gpu_adjoint_out_of_budget_falls_back_to_the_direct_solve,
          test_inexact_forcing_relaxes_the_tolerance_at_inexact_states_only,
-         test_coarse_space_solves_the_same_system_in_fewer_iterations, test_set_coarse_checks_its_arrays,
          test_an_equilibrium_solve_goes_on_past_the_budget_before_the_cpu)

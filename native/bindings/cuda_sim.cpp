@@ -313,23 +313,6 @@ void bind_cuda_sim(py::module_& m) {
            },
            py::arg("gpu"), py::arg("x"), py::arg("psd") = false, py::arg("shift") = 1e-8,
            "set_state with x a DeviceArray.")
-      .def("set_coarse",
-           [](AdjointGpu& a, SimGpu& g, py::array_t<int32_t, py::array::c_style | py::array::forcecast> aggregate,
-              int n_agg, DArr coarse_inverse) {
-             const int n = g.simulator().n_vertices();
-             if (aggregate.ndim() != 1 || aggregate.shape(0) != n)
-               throw py::value_error("set_coarse: aggregate must hold one entry per vertex (" + std::to_string(n) + ")");
-             const py::ssize_t nc = 3 * py::ssize_t(n_agg);
-             if (coarse_inverse.size() != nc * nc)
-               throw py::value_error("set_coarse: the coarse inverse must be (3 n_agg)^2 = " + std::to_string(nc * nc) +
-                                     " values, got " + std::to_string(coarse_inverse.size()));
-             py::gil_scoped_release nogil;
-             a.set_coarse(aggregate.data(), n_agg, coarse_inverse.data());
-           },
-           py::arg("gpu"), py::arg("aggregate"), py::arg("n_agg"), py::arg("coarse_inverse"),
-           "Two-level preconditioner: each vertex's aggregate (-1: none) and the dense inverse of the coarse "
-           "matrix P^T H_psd P ((3 n_agg)^2, row-major); n_agg = 0 removes it.")
-      .def_property_readonly("coarse_size", &AdjointGpu::coarse_size)
       .def("solve",
            [](AdjointGpu& a, SimGpu& g, DArr rhs, py::object lam0, double tolerance, int max_iterations,
               int batch, bool persistent) {

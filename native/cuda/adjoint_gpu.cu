@@ -8,14 +8,6 @@
 // reduction of alfa, the Lanczos vector update with the preconditioner, and
 // the reduction of beta with the scalar rotation (sim/minres.hpp). Sums are
 // reduced in a fixed order, so a solve is deterministic run to run.
-//
-// With a coarse space (set_coarse) the preconditioner is two-level additive:
-// M^-1 r = D^-1 r + P A_c^-1 P^T r, P the piecewise-constant prolongation from
-// vertex aggregates and A_c^-1 a dense inverse from the host. Block Jacobi
-// removes short wavelengths of the residual and nothing of the longest (a
-// garment sliding or turning on the body); the coarse term carries those.
-// Three more kernels per iteration (restrict, dense product, prolong), so this
-// path runs as a graph, not the persistent kernel.
 #include <cooperative_groups.h>
 #include <cuda_runtime.h>
 
@@ -29,7 +21,6 @@
 #include <vector>
 
 #include "adjoint_gpu.hpp"
-#include "dense_rows.cuh"
 #include "dev_buffer.cuh"
 #include "sim/solve_messages.hpp"
 #include "sim/minres.hpp"
@@ -44,16 +35,6 @@ namespace {
 constexpr int kRedThreads = 256;
 constexpr int kPersistentThreads = 128;
 
-// The coarse space: aggregates of vertices, three unknowns each.
-struct Coarse {
-  int n_agg = 0;                       // 0: block Jacobi alone
-  const int32_t* agg = nullptr;        // per vertex; -1: in no aggregate
-  const int32_t* start = nullptr;      // aggregate a holds members[start[a] .. start[a+1])
-  const int32_t* members = nullptr;
-  double *c = nullptr, *z = nullptr;   // P^T r and A_c^-1 P^T r (3 n_agg)
-  double *cg = nullptr, *zg = nullptr; // the same for g at the start
-};
-
 // Everything the iteration kernels touch besides the model (3n doubles each
 // unless said otherwise).
 struct Vecs {
@@ -64,44 +45,7 @@ struct Vecs {
   Sym3 *Hs = nullptr, *Hown = nullptr, *Minv = nullptr;  // per spring, per vertex, per vertex
   double* part = nullptr;                                 // per-block partial sums
   MinresState* st = nullptr;
-  Coarse co;
 };
-
-// Sum of u.w over n entries by one block, in a fixed order; every thread gets it.
-__device__ double block_dot_fixed(const double* u, const double* w, int n) {
-  __shared__ double sh[kRedThreads];
-  const int t = threadIdx.x;
-  double a = 0;
-  for (int k = t; k < n; k += blockDim.x) a += u[k] * w[k];
-  __syncthreads();  // sh may still be read by a previous call
-  sh[t] = a;
-  __syncthreads();
-  for (int h = blockDim.x / 2; h > 0; h >>= 1) {
-    if (t < h) sh[t] += sh[t + h];
-    __syncthreads();
-  }
-  return sh[0];
-}
-
-// c = P^T u: each (aggregate, axis) sums its members in order (deterministic).
-__global__ void k_restrict(Coarse co, const MinresState* st, const double* __restrict__ u, double* __restrict__ c) {
-  if (st && st->done) return;
-  const int k = blockIdx.x * blockDim.x + threadIdx.x;
-  if (k >= 3 * co.n_agg) return;
-  const int ag = k / 3, d = k - 3 * ag;
-  double s = 0;
-  for (int i = co.start[ag]; i < co.start[ag + 1]; ++i) s += u[3 * co.members[i] + d];
-  c[k] = s;
-}
-
-// y += P z.
-__global__ void k_prolong(Coarse co, const MinresState* st, int n, const double* __restrict__ z, double* __restrict__ y) {
-  if (st && st->done) return;
-  const int k = blockIdx.x * blockDim.x + threadIdx.x;
-  if (k >= 3 * n) return;
-  const int ag = co.agg[k / 3];
-  if (ag >= 0) y[k] += z[3 * ag + (k % 3)];
-}
 
 // Q partial sums per block, reduced by one block in a fixed order.
 template <int Q>
@@ -217,10 +161,6 @@ __global__ void k_init(DevModel<R> m, Vecs a) {
 __global__ void __launch_bounds__(kRedThreads) k_start(Vecs a, int nb, double tol, int max_it) {
   double s[3];
   reduce_fixed<3>(a.part, nb, s);
-  if (a.co.n_agg) {  // r.(P z_r) = (P^T r).z_r, and the same for g
-    s[0] += block_dot_fixed(a.co.c, a.co.z, 3 * a.co.n_agg);
-    s[1] += block_dot_fixed(a.co.cg, a.co.zg, 3 * a.co.n_agg);
-  }
   if (threadIdx.x == 0) {
     MinresState st = *a.st;
     st.tol = tol;
@@ -291,7 +231,6 @@ __global__ void __launch_bounds__(kRedThreads) k_rotate(Vecs a, int nb) {
   if (a.st->done) return;
   double s[1];
   reduce_fixed<1>(a.part, nb, s);
-  if (a.co.n_agg) s[0] += block_dot_fixed(a.co.c, a.co.z, 3 * a.co.n_agg);
   __syncthreads();
   if (threadIdx.x == 0) {
     MinresState st = *a.st;
@@ -372,9 +311,6 @@ struct AdjointGpu::Impl {
   cudaStream_t stream = nullptr;
   int n = 0, n_springs = 0, block = 128, nb = 0;
   DevBuf x, g, lam, r1, r2, y, v, t, w, w2, Hs, Hown, Minv, part, partB, st;
-  // The coarse space (n_agg = 0: none) and the dense product's descriptor.
-  int n_agg = 0;
-  DevBuf agg, agg_start, agg_members, c, z, cg, zg, Ac_inv, dr_block, dr_row0, dr_col0, dr_ncols, dr_offset;
   int coop_blocks = 0;  // blocks of the persistent kernel (0: no cooperative launch here)
   MinresState* snap = nullptr;  // pinned
   bool have_state = false;
@@ -405,42 +341,7 @@ struct AdjointGpu::Impl {
     a.Minv = Minv.as<Sym3>();
     a.part = part.as<double>();
     a.st = st.as<MinresState>();
-    if (n_agg) {
-      a.co.n_agg = n_agg;
-      a.co.agg = agg.as<int32_t>();
-      a.co.start = agg_start.as<int32_t>();
-      a.co.members = agg_members.as<int32_t>();
-      a.co.c = c.as<double>();
-      a.co.z = z.as<double>();
-      a.co.cg = cg.as<double>();
-      a.co.zg = zg.as<double>();
-    }
     return a;
-  }
-
-  // z = A_c^-1 c, one warp per row.
-  void coarse_solve(const double* cin, double* zout) const {
-    DenseRows d;
-    d.rows = 3 * n_agg;
-    d.row_block = dr_block.as<int32_t>();
-    d.row0 = dr_row0.as<int32_t>();
-    d.col0 = dr_col0.as<int32_t>();
-    d.ncols = dr_ncols.as<int32_t>();
-    d.offset = dr_offset.as<int64_t>();
-    d.A = Ac_inv.as<double>();
-    d.in = cin;
-    d.out = zout;
-    launch_dense_rows<1>(d, stream);
-  }
-
-  // y += P A_c^-1 P^T u, with P^T u in c and A_c^-1 P^T u in z for the dot products;
-  // skipped once the solve is done when `st` is given.
-  void coarse_correct(const Vecs& a, const double* u, double* cbuf, double* zbuf, double* yv,
-                      const MinresState* stp) const {
-    const int nc = 3 * n_agg;
-    k_restrict<<<(nc + 127) / 128, 128, 0, stream>>>(a.co, stp, u, cbuf);
-    coarse_solve(cbuf, zbuf);
-    if (yv) k_prolong<<<(3 * n + 255) / 256, 256, 0, stream>>>(a.co, stp, n, zbuf, yv);
   }
 
   template <class F>
@@ -458,7 +359,6 @@ struct AdjointGpu::Impl {
     });
     k_alfa<<<1, kRedThreads, 0, stream>>>(a, nb);
     k_precondition<<<nb, block, 0, stream>>>(a);
-    if (n_agg) coarse_correct(a, a.r2, a.co.c, a.co.z, a.y, a.st);
     k_rotate<<<1, kRedThreads, 0, stream>>>(a, nb);
     SF_CUDA(cudaGetLastError());
   }
@@ -569,49 +469,6 @@ void AdjointGpu::set_state(const double* x, bool psd, double shift_rel) {
 
 void AdjointGpu::set_state_device(const double* d_x, bool psd, double shift_rel) { set_state(d_x, psd, shift_rel); }
 
-void AdjointGpu::set_coarse(const int32_t* aggregate, int n_agg, const double* coarse_inverse) {
-  Impl& I = *impl_;
-  if (n_agg < 0) throw CudaError("set_coarse: negative aggregate count");
-  if (n_agg == 0) {
-    I.n_agg = 0;
-    if (I.graph) cudaGraphExecDestroy(I.graph);
-    I.graph = nullptr;
-    return;
-  }
-  std::vector<int32_t> count(size_t(n_agg) + 1, 0);
-  for (int v = 0; v < I.n; ++v) {
-    const int ag = aggregate[v];
-    if (ag < -1 || ag >= n_agg)
-      throw CudaError("set_coarse: vertex " + std::to_string(v) + " names aggregate " + std::to_string(ag) +
-                      " of " + std::to_string(n_agg));
-    if (ag >= 0) ++count[size_t(ag) + 1];
-  }
-  for (int ag = 0; ag < n_agg; ++ag) count[size_t(ag) + 1] += count[size_t(ag)];
-  std::vector<int32_t> members(static_cast<size_t>(count[size_t(n_agg)]));
-  std::vector<int32_t> fill(count.begin(), count.end() - 1);
-  for (int v = 0; v < I.n; ++v)
-    if (aggregate[v] >= 0) members[size_t(fill[size_t(aggregate[v])]++)] = v;  // ascending: a fixed sum order
-  const int nc = 3 * n_agg;
-  upload(I.agg, aggregate, size_t(I.n), I.stream);
-  upload(I.agg_start, count.data(), count.size(), I.stream);
-  upload(I.agg_members, members.data(), members.size(), I.stream);
-  upload(I.Ac_inv, coarse_inverse, size_t(nc) * size_t(nc), I.stream);
-  for (DevBuf* b : {&I.c, &I.z, &I.cg, &I.zg}) b->reserve(size_t(nc) * sizeof(double));
-  const std::vector<int32_t> rb(size_t(nc), 0), zero1{0}, ncols{nc};
-  const std::vector<int64_t> off{0};
-  upload(I.dr_block, rb.data(), rb.size(), I.stream);
-  upload(I.dr_row0, zero1.data(), 1, I.stream);
-  upload(I.dr_col0, zero1.data(), 1, I.stream);
-  upload(I.dr_ncols, ncols.data(), 1, I.stream);
-  upload(I.dr_offset, off.data(), 1, I.stream);
-  SF_CUDA(cudaStreamSynchronize(I.stream));  // the host vectors above go out of scope
-  I.n_agg = n_agg;
-  if (I.graph) cudaGraphExecDestroy(I.graph);  // captured with other buffers or without the coarse kernels
-  I.graph = nullptr;
-}
-
-int AdjointGpu::coarse_size() const { return 3 * impl_->n_agg; }
-
 AdjointReport AdjointGpu::solve(const double* g, double* lam, const AdjointSettings& s) {
   Impl& I = *impl_;
   const auto t0 = std::chrono::steady_clock::now();
@@ -639,15 +496,11 @@ AdjointReport AdjointGpu::minres(const AdjointSettings& s, std::chrono::steady_c
     using R = std::remove_const_t<std::remove_pointer_t<decltype(M::rest_L)>>;
     k_init<R><<<I.nb, I.block, 0, I.stream>>>(m, a);
   });
-  if (I.n_agg) {
-    I.coarse_correct(a, a.r2, a.co.c, a.co.z, a.y, nullptr);
-    I.coarse_correct(a, a.g, a.co.cg, a.co.zg, nullptr, nullptr);
-  }
   k_start<<<1, kRedThreads, 0, I.stream>>>(a, I.nb, s.tolerance, std::max(s.max_iterations, 1));
   SF_CUDA(cudaGetLastError());
   MinresState st = I.read_state();
   const int batch = std::max(s.batch, 1);
-  const bool persistent = s.persistent && I.coop_blocks > 0 && I.n_agg == 0;
+  const bool persistent = s.persistent && I.coop_blocks > 0;
   while (!st.done) {
     if (persistent) I.launch_persistent(batch);
     else I.launch_batch(batch);

@@ -4,8 +4,8 @@
 // shift eps * mean|diag H|. The spring and vertex Hessian blocks are computed
 // once per state and stored, so each iteration is a stored-block product (a
 // gather, no atomics); the preconditioner is block Jacobi with the PSD
-// diagonal blocks, optionally plus a coarse-space term (set_coarse). Vectors stay on the device; the host looks in once per
-// batch of iterations: one persistent cooperative kernel with two grid barriers
+// diagonal blocks. Vectors stay on the device; the host looks in once per batch
+// of iterations: one persistent cooperative kernel with two grid barriers
 // per iteration, or (where cooperative launch is not available, or asked for)
 // a CUDA graph of four kernels per iteration. Host-only interface: no CUDA types.
 #pragma once
@@ -46,12 +46,6 @@ class AdjointGpu {
 
   // H at x (3n): exact or PSD-projected, shifted by shift_rel * mean|diag H|.
   void set_state(const double* x, bool psd, double shift_rel);
-  // Two-level preconditioner: aggregate[v] in [0, n_agg) or -1 (n vertices),
-  // and the dense inverse of the coarse matrix A_c = P^T H_psd P, (3 n_agg)^2
-  // row-major (symmetric). Kept across set_state (a stale A_c is still a
-  // valid, SPD preconditioner); n_agg = 0 goes back to block Jacobi alone.
-  void set_coarse(const int32_t* aggregate, int n_agg, const double* coarse_inverse);
-  int coarse_size() const;  // 3 n_agg
   // Solves H lam = g (3n); lam holds the start on entry (a warm start; zeros
   // for none) and the solution on return.
   AdjointReport solve(const double* g, double* lam, const AdjointSettings& s);

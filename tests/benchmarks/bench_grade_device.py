@@ -58,7 +58,7 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
 
     settings = GradeSettings(edge_length_cm=edge_cm, max_outer_iterations=args.max_iterations,
                              sdf_spacing=args.sdf_spacing, sdf_region=args.sdf_region,
-                             adjoint_forcing=args.adjoint_forcing, adjoint_coarse=args.adjoint_coarse,
+                             adjoint_forcing=args.adjoint_forcing,
                              accept_unsettled_base=args.accept_unsettled_base,
                              device_state=not args.host_state,
                              checkpoint_every=args.checkpoint_every, device=device,
@@ -70,7 +70,7 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
     r = res.report
     return {"garment": args.pattern.parent.parent.name, "edge_length_cm": edge_cm, "sdf_spacing_mm": 1000 * args.sdf_spacing, "device": r["device"],
             "sdf": r.get("sdf"),
-            "adjoint_forcing": args.adjoint_forcing, "adjoint_coarse": args.adjoint_coarse,
+            "adjoint_forcing": args.adjoint_forcing,
             "state_on_gpu": r.get("state_on_gpu"),
             "rho_max": sim_settings.rho_max,
             "triangles": r["mesh"]["triangles"],
@@ -376,8 +376,6 @@ def main(argv=None) -> int:
                    help="time the grading even when the base drape does not settle (its row says so)")
     r.add_argument("--rho-max", type=float, default=0.0,
                    help="upper bound of the Chebyshev rho (0: the simulator's default)")
-    r.add_argument("--adjoint-coarse", type=int, default=0,
-                   help="aggregates of the GPU adjoint's two-level preconditioner (0: block Jacobi alone)")
     r.set_defaults(func=cmd_run)
     c = sub.add_parser("curves")
     c.add_argument("--out", type=Path, required=True)

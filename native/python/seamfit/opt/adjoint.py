@@ -36,12 +36,6 @@ its scale, so that the direct solve's lam is dominated by those near-singular mo
 and the implicit-function gradient does not hold anyway) MINRES's last iterate, the
 minimum-residual solution in its Krylov space, is kept (counted in `truncated`).
 docs/gpu.md, "The adjoint on the GPU", has the measurements behind this.
-
-With ``coarse`` > 0 the GPU's preconditioner is two-level: block Jacobi plus a correction
-over about that many vertex aggregates (seamfit.opt.coarse_space). Its coarse matrix is
-built on the CPU from the PSD-projected Hessian at the first state and again at every
-equilibrium state (an exact checkpoint of the search); in between the last one serves,
-which keeps it a valid (SPD) preconditioner while x moves.
 """
 from __future__ import annotations
 
@@ -71,7 +65,7 @@ class AdjointSolver:
 
     def __init__(self, simulator, *, psd: bool = False, shift: float = DEFAULT_SHIFT, device: str = "cpu",
                  gpu_tolerance: float = GPU_TOLERANCE, gpu_max_iterations: int = GPU_MAX_ITERATIONS,
-                 equilibrium_tolerance: float | None = None, inexact_forcing: float = 0.0, coarse: int = 0):
+                 equilibrium_tolerance: float | None = None, inexact_forcing: float = 0.0):
         if device not in ("cpu", "cuda"):
             raise SolveError(f"unknown adjoint device {device!r} (cpu or cuda)")
         self.sim = simulator
@@ -85,11 +79,6 @@ class AdjointSolver:
         # > 0: at an inexact state (residual r above equilibrium_tolerance) MINRES stops at
         # max(gpu_tolerance, inexact_forcing * r), as inexact Newton does (0: always gpu_tolerance).
         self.inexact_forcing = float(inexact_forcing)
-        # > 0: aggregates of the GPU's two-level preconditioner (0: block Jacobi alone).
-        self.coarse = int(coarse)
-        self.coarse_builds = 0         # coarse matrices built
-        self.seconds_coarse = 0.0      # their CPU time (Hessian, Galerkin product, inverse)
-        self._coarse_agg = None        # (aggregate per vertex, count), fixed per mesh
         self.relaxed = 0               # GPU solves at inexact states with the relaxed tolerance
         self.truncated = 0             # GPU solves at inexact states kept at MINRES's budget
         self.extended = 0              # GPU solves at equilibrium states continued past the budget
@@ -117,8 +106,7 @@ class AdjointSolver:
             d.update(minres_iterations=self.minres_iterations, gpu_fallbacks=self.gpu_fallbacks,
                      truncated=self.truncated, extended=self.extended, tolerance=self.gpu_tolerance,
                      max_iterations=self.gpu_max_iterations, inexact_forcing=self.inexact_forcing,
-                     relaxed=self.relaxed, coarse_size=3 * self._coarse_agg[1] if self._coarse_agg else 0,
-                     coarse_builds=self.coarse_builds, seconds_coarse=self.seconds_coarse)
+                     relaxed=self.relaxed)
         return d
 
     def factorize(self, x, residual: float | None = None) -> None:
@@ -148,30 +136,11 @@ class AdjointSolver:
             self._gpu().set_state_device(gpu._gpu, x, self.psd, self.shift)
         else:
             self._gpu().set_state(gpu._gpu, x, self.psd, self.shift)
-        if self.coarse > 0 and (self._coarse_agg is None or self._at_equilibrium()):
-            self._build_coarse(host(x))
         # A DeviceArray is kept by reference: it stays unchanged until the gradient that
         # set it is done (the fallback and the residual read it then).
         self._x = x if is_device(x) else x.copy()
         self._solve = self._solve_gpu
         self.factorizations += 1
-
-    def _at_equilibrium(self) -> bool:
-        r, tol = self._x_residual, self.equilibrium_tolerance
-        return r is not None and tol is not None and r <= tol
-
-    def _build_coarse(self, x) -> None:
-        from .coarse_space import aggregates, coarse_inverse
-
-        t0 = time.perf_counter()
-        if self._coarse_agg is None:
-            self._coarse_agg = aggregates(x, self.sim.mesh.triangles, self.coarse)
-        agg, n_agg = self._coarse_agg
-        self.sim.sync_host_pattern()
-        inv = coarse_inverse(self.sim.hessian(x, psd=True), agg, n_agg, self.shift)
-        self._gpu().set_coarse(self.sim.cuda()._gpu, agg, n_agg, inv)
-        self.coarse_builds += 1
-        self.seconds_coarse += time.perf_counter() - t0
 
     def _solve_gpu(self, g) -> np.ndarray:
         gpu = self.sim.cuda()

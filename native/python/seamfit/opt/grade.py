@@ -102,9 +102,6 @@ class GradeSettings:
     # states it is 1e-8 always. 0: 1e-8 everywhere, as the CPU's direct solve; 0.01 (default)
     # grades the 60K skirt 4x faster to a lower objective (docs/gpu.md).
     adjoint_forcing: float = 0.01
-    # GPU adjoint: aggregates of MINRES's two-level preconditioner (seamfit.opt.coarse_space);
-    # 0: block Jacobi alone.
-    adjoint_coarse: int = 0
     # On the GPU, keep theta and x in GPU memory between exact checkpoints (False: the
     # loop on host arrays, each GPU piece copying in and out; for measuring what it saves).
     device_state: bool = True
@@ -128,8 +125,6 @@ class GradeSettings:
             raise SolveError(f"unknown device {self.device!r}; choose auto, cpu or cuda")
         if not (0 <= self.adjoint_forcing < 1):
             raise SolveError(f"adjoint_forcing must lie in [0, 1), got {self.adjoint_forcing}")
-        if not (isinstance(self.adjoint_coarse, int) and self.adjoint_coarse >= 0):
-            raise SolveError(f"adjoint_coarse must be a whole number >= 0 (0: off), got {self.adjoint_coarse!r}")
         if self.start not in STARTS:
             raise SolveError(f"unknown start {self.start!r}; choose one of {', '.join(STARTS)}")
         if self.method not in METHODS:

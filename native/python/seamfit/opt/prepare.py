@@ -263,8 +263,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     # An unconverged GPU adjoint solve at a state within 10x the exact tolerance falls
     # back to the CPU; further out it keeps MINRES's iterate (seamfit.opt.adjoint).
     adjoint = AdjointSolver(sim, device=device, equilibrium_tolerance=10 * exact_tolerance,
-                            inexact_forcing=settings.adjoint_forcing,
-                            coarse=settings.adjoint_coarse if device == "cuda" else 0)
+                            inexact_forcing=settings.adjoint_forcing)
     ctx = GradeContext(
         base_pattern=base_pattern, base_body=base_body, target_body=target_body, settings=settings,
         strengths=strengths, mesh=mesh, base_sdf=base_sdf, target_sdf=target_sdf, xbar=xbar, xtilde=xtilde,

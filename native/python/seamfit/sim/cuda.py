@@ -16,17 +16,8 @@ from typing import Callable, Optional
 import numpy as np
 
 from .._native import core
+from ..device import cuda_available  # one check for the package
 from ..errors import DeviceError
-
-
-def cuda_available() -> tuple[bool, str]:
-    """(usable, why not) for the CUDA backend on this machine."""
-    c = core()
-    if not getattr(c, "built_with_cuda", False) or not hasattr(c, "CudaSimulator"):
-        return False, "this seamfit build has no CUDA backend (it was built without nvcc)"
-    if c.cuda_device_count() == 0:
-        return False, "no CUDA GPU or driver is present on this machine"
-    return True, ""
 
 
 def require_cuda() -> None:

@@ -1,4 +1,4 @@
-"""The search's state on the GPU (seamfit.opt.device_arrays): DeviceArrays that round-trip
+"""The search's state on the GPU (seamfit.device_arrays): DeviceArrays that round-trip
 losslessly, every piece of an outer iteration answering a DeviceArray as it answers a NumPy
 array, a pattern set on the GPU alone reaching the CPU model when a CPU method needs it,
 starts that need the CPU's projection taking the host path, and the grading loop on GPU
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from seamfit._native import core
-from seamfit.opt.device_arrays import host, is_device
+from seamfit.device_arrays import host, is_device
 
 GPU = core().cuda_device_count() > 0
 SAMPLES = Path(__file__).resolve().parents[1] / "sample_files"
@@ -83,7 +83,7 @@ def _close(a, b, rel=1e-12):
 def test_every_piece_answers_device_arrays_as_numpy_arrays(ctx):
     """p(theta) and its adjoint, the costs, R, R^seam, P^-1 and the simulator's steps: the
     same kernels behind both entry points, so the same numbers (to rounding)."""
-    from seamfit.opt.device_arrays import to_device
+    from seamfit.device_arrays import to_device
 
     D = core().DeviceArray
     assert ctx.param.device == ctx.regs.device == ctx.seam.device == ctx.costs.device == "cuda"
@@ -129,7 +129,7 @@ def test_the_adjoint_gradient_on_device_arrays_matches_the_host_one(ctx):
     """The whole gradient of f (costs, MINRES, (df/dp)^T lam, the adjoint of p(theta), R and
     R^seam), from the settled state and from an inexact one, on both kinds of array."""
     from seamfit.opt.adjoint import AdjointSolver
-    from seamfit.opt.device_arrays import to_device
+    from seamfit.device_arrays import to_device
     from seamfit.opt.objective import Objective
 
     x = ctx.extra["x"]
@@ -156,7 +156,7 @@ def test_a_fallback_to_the_cpu_factorization_sees_the_pattern_set_on_the_gpu(ctx
     solve. With the state on the GPU the CPU model is behind (the pattern was set there
     alone): the fallback brings it up first, so its gradient is the host path's."""
     from seamfit.opt.adjoint import AdjointSolver
-    from seamfit.opt.device_arrays import to_device
+    from seamfit.device_arrays import to_device
     from seamfit.opt.objective import Objective
 
     x = ctx.extra["x"]
@@ -231,7 +231,7 @@ def test_a_start_the_cpu_would_project_takes_the_host_path(ctx):
     which projects it as the CPU solver does, so both end at the same state; a state that is
     not finite is refused with the vertex named, as on the host."""
     from seamfit.errors import SolveError
-    from seamfit.opt.device_arrays import to_device
+    from seamfit.device_arrays import to_device
 
     sim = ctx.sim
     sim.set_pattern(ctx.param.pattern(ctx.param.theta_bar))

@@ -47,7 +47,7 @@ import scipy.sparse.linalg as spla
 
 from .._native import core
 from ..errors import SolveError
-from .device_arrays import Buffers, all_finite, host, is_device
+from ..device_arrays import Buffers, all_finite, host, is_device
 
 DEFAULT_SHIFT = 1e-8
 # MINRES on the GPU: |r|_{M^-1} <= tol |g|_{M^-1}; docs/gpu.md has the gradient error

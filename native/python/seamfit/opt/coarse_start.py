@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..sim.multilevel import COARSENING, locate
-from .device_arrays import host
+from ..device_arrays import host
 
 
 @dataclass

@@ -6,7 +6,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from .._native import core
-from .device_arrays import Buffers, host, is_device
+from ..device_arrays import Buffers, host, is_device
 from ..errors import SolveError
 from ._mesh import mesh_arrays
 
@@ -120,7 +120,7 @@ class CostSet:
 
     def evaluate(self, x, p):
         """-> (value, {"dis", "smo", "str", "pos"}, grad_x (N, 3), grad_p (N, 2)). With x and p
-        DeviceArrays the gradients are DeviceArrays too (seamfit.opt.device_arrays)."""
+        DeviceArrays the gradients are DeviceArrays too (seamfit.device_arrays)."""
         if is_device(x):
             out = self._device_out
             gx, gp = out.get("grad_x", x.shape[0], 3), out.get("grad_p", x.shape[0], 2)

@@ -11,7 +11,7 @@ The result is always an exact checkpoint, so its objective is that of a converge
 drape, and it never ends higher than the checkpoint before it.
 
 On the GPU (simulator and adjoint on device "cuda") theta and x live in GPU memory
-(seamfit.opt.device_arrays) from one exact checkpoint to the next: an inexact outer
+(seamfit.device_arrays) from one exact checkpoint to the next: an inexact outer
 iteration moves only scalars to the host. They come down for the checkpoint's exact
 solve, whose result is kept on the host, and go back up after it.
 """
@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from .device_arrays import host, to_device
+from ..device_arrays import host, to_device
 from .output import SearchOutcome
 
 

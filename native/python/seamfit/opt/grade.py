@@ -30,7 +30,7 @@ from .baselines import fixed_point, two_phase
 from .coarse_start import coarse_edge_for, fine_settings, grade_coarse
 from .costs import Strengths
 from .descent import descend
-from .device_arrays import host
+from ..device_arrays import host
 from .initialize import initialize_pattern
 from .output import GradeResult, SearchOutcome, finish
 from .prepare import ProgressFn, base_drape, prepare

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .device_arrays import is_device
+from ..device_arrays import is_device
 
 
 class Objective:

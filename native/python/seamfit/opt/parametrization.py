@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._native import core
-from .device_arrays import Buffers, host, is_device
+from ..device_arrays import Buffers, host, is_device
 from ..errors import PatternError
 from ._mesh import mesh_arrays
 

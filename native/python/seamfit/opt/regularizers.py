@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._native import core
-from .device_arrays import Buffers, host, is_device
+from ..device_arrays import Buffers, host, is_device
 from ..errors import PatternError
 
 # w_i of R^cur: corners bend freely so the angle between two curves can adjust.

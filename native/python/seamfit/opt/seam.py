@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._native import core
-from .device_arrays import Buffers, host, is_device
+from ..device_arrays import Buffers, host, is_device
 
 
 def seam_segments(mesh, param) -> np.ndarray:

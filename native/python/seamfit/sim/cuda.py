@@ -143,7 +143,7 @@ class CudaSimulator:
         x and lam the result is a DeviceArray (reused by the next call)."""
         if self._dfdp is None:
             self._dfdp = core().CudaDfdp(self._gpu)
-        from ..opt.device_arrays import is_device
+        from ..device_arrays import is_device
         if is_device(x):
             if self._dfdp_out is None or self._dfdp_out.shape[0] != x.shape[0]:
                 self._dfdp_out = core().DeviceArray.zeros(x.shape[0], 2)

@@ -226,7 +226,7 @@ class Simulator:
         """New rest state p (N, 2), metres. A DeviceArray p goes to the GPU mirror alone,
         which computes its rest state there; the CPU model (``self.p``) catches up only
         when a CPU method needs it (``sync_host_pattern``)."""
-        from ..opt.device_arrays import is_device
+        from ..device_arrays import is_device
         if is_device(p):
             self.cuda().set_pattern_device(p)
             return
@@ -383,7 +383,7 @@ class Simulator:
         (energy, sewing gaps, phi), which at 60K triangles costs more than the
         iterations on the GPU. report["residual"] is the relative residual at x.
         A DeviceArray x0 (GPU only) is advanced in place and returned."""
-        from ..opt.device_arrays import is_device
+        from ..device_arrays import is_device
         if is_device(x0):
             if (device or self.settings.device) != "cuda":
                 raise DeviceError("a garment state on the GPU needs device cuda")

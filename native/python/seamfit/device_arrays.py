@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._native import core
+from ._native import core
 
 
 def is_device(a) -> bool:

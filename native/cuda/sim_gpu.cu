@@ -91,11 +91,6 @@ struct EvalArgs {
   Sym3* Dsp = nullptr;          // the springs' share of D at the last refresh (Ctrl::reuse)
   SdfSample* S = nullptr;
   double* part_eval = nullptr;  // per block: six energy terms and |f|^2
-  const double* part_step = nullptr;
-  int nb_step = 0;
-  double* upd_norm = nullptr;
-  double* hist = nullptr;
-  int new_cur = 0;              // the buffer that holds x
 };
 
 // The solver's control step on the reduced sums, by one thread, on a local
@@ -368,17 +363,13 @@ struct SimGpu::Impl {
     a.Dsp = Dsp.as<Sym3>();
     a.S = bar ? S.as<SdfSample>() : nullptr;
     a.part_eval = part_eval.as<double>();
-    a.part_step = part_step.as<double>();
-    a.nb_step = nb_step;
-    a.upd_norm = upd_norm.as<double>();
-    a.hist = hist.as<double>();
-    a.new_cur = new_cur;
     const int nb = int((int64_t(n) * L + opt.block - 1) / opt.block);
     if (c) k_eval<R, L, false><<<nb, opt.block, 0, stream>>>(m, a);
     else k_eval<R, L, true><<<nb, opt.block, 0, stream>>>(m, a);
     SF_CUDA(cudaGetLastError());
     if (c) {
-      k_ctrl<<<1, kCtrlThreads, 0, stream>>>(c, a.part_eval, nb, a.part_step, nb_step, new_cur, a.upd_norm, a.hist);
+      k_ctrl<<<1, kCtrlThreads, 0, stream>>>(c, a.part_eval, nb, part_step.as<double>(), nb_step, new_cur,
+                                             upd_norm.as<double>(), hist.as<double>());
       SF_CUDA(cudaGetLastError());
     }
   }

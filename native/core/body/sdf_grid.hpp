@@ -24,6 +24,43 @@ struct SdfSample {
   Vec3 grad;
 };
 
+// The grid cell that holds p, the one lookup every interpolant of the field starts from
+// (trilinear here, its Hessian in sim/terms/barrier.hpp, the cubic B-spline in
+// sim/terms/sdf_smooth.hpp). Per axis: the cell's first node base (0 <= base <= n - 2),
+// p's position t within the cell, and for a p beyond the grid box how far beyond
+// (outside, metres) with the axis clamped to the box.
+struct SdfCell {
+  int base[3];
+  double t[3];
+  double outside[3];
+  bool clamped[3];
+};
+
+SF_HD SdfCell sdf_cell(const SdfGridView& g, Vec3 p) {
+  const double h = g.spacing;
+  double q[3] = {(p.x - g.origin[0]) / h, (p.y - g.origin[1]) / h, (p.z - g.origin[2]) / h};
+  const int n[3] = {g.nx, g.ny, g.nz};
+  SdfCell c;
+  for (int a = 0; a < 3; ++a) {
+    const double hi = double(n[a] - 1);
+    c.outside[a] = 0;
+    c.clamped[a] = false;
+    if (q[a] < 0) { c.outside[a] = q[a] * h; q[a] = 0; c.clamped[a] = true; }
+    else if (q[a] > hi) { c.outside[a] = (q[a] - hi) * h; q[a] = hi; c.clamped[a] = true; }
+    int b = int(floor(q[a]));
+    if (b > n[a] - 2) b = n[a] - 2;
+    if (b < 0) b = 0;
+    c.base[a] = b;
+    c.t[a] = q[a] - b;
+  }
+  return c;
+}
+
+// The stored value at node (i, j, k).
+SF_HD double sdf_node(const SdfGridView& g, int i, int j, int k) {
+  return double(g.values[i + int64_t(g.nx) * (j + int64_t(g.ny) * k)]);
+}
+
 // Trilinear value and gradient. Outside the grid the value continues as the
 // value at the nearest boundary point plus the distance to the grid box, with a
 // gradient pointing away from the box, so a far-away vertex is pulled back in
@@ -38,23 +75,11 @@ SF_HD SdfSample sdf_sample(const SdfGridView& g, Vec3 p) {
     bad.grad = make_vec3(0, 0, 0);
     return bad;
   }
-  double q[3] = {(p.x - g.origin[0]) / h, (p.y - g.origin[1]) / h, (p.z - g.origin[2]) / h};
-  const int n[3] = {g.nx, g.ny, g.nz};
-  double outside[3] = {0, 0, 0};
-  int base[3];
-  double t[3];
-  for (int a = 0; a < 3; ++a) {
-    const double hi = double(n[a] - 1);
-    if (q[a] < 0) { outside[a] = q[a] * h; q[a] = 0; }
-    else if (q[a] > hi) { outside[a] = (q[a] - hi) * h; q[a] = hi; }
-    int b = int(floor(q[a]));
-    if (b > n[a] - 2) b = n[a] - 2;
-    if (b < 0) b = 0;
-    base[a] = b;
-    t[a] = q[a] - b;
-  }
+  const SdfCell cell = sdf_cell(g, p);
+  const double* t = cell.t;
+  const double* outside = cell.outside;
   auto at = [&](int i, int j, int k) -> double {
-    return double(g.values[(base[0] + i) + int64_t(g.nx) * ((base[1] + j) + int64_t(g.ny) * (base[2] + k))]);
+    return sdf_node(g, cell.base[0] + i, cell.base[1] + j, cell.base[2] + k);
   };
   const double c000 = at(0, 0, 0), c100 = at(1, 0, 0), c010 = at(0, 1, 0), c110 = at(1, 1, 0);
   const double c001 = at(0, 0, 1), c101 = at(1, 0, 1), c011 = at(0, 1, 1), c111 = at(1, 1, 1);

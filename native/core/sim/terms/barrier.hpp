@@ -19,24 +19,12 @@ namespace seamfit::sim {
 // grid). Pure second derivatives vanish inside a cell; mixed ones do not.
 SF_HD Sym3 sdf_hessian(const SdfGridView& g, Vec3 p) {
   const double h = g.spacing;
-  double q[3] = {(p.x - g.origin[0]) / h, (p.y - g.origin[1]) / h, (p.z - g.origin[2]) / h};
-  const int n[3] = {g.nx, g.ny, g.nz};
-  double outside[3] = {0, 0, 0};
-  bool clamped[3] = {false, false, false};
-  int base[3];
-  double t[3];
-  for (int a = 0; a < 3; ++a) {
-    const double hi = double(n[a] - 1);
-    if (q[a] < 0) { outside[a] = q[a] * h; q[a] = 0; clamped[a] = true; }
-    else if (q[a] > hi) { outside[a] = (q[a] - hi) * h; q[a] = hi; clamped[a] = true; }
-    int b = int(floor(q[a]));
-    if (b > n[a] - 2) b = n[a] - 2;
-    if (b < 0) b = 0;
-    base[a] = b;
-    t[a] = q[a] - b;
-  }
+  const SdfCell cell = sdf_cell(g, p);
+  const double* t = cell.t;
+  const double* outside = cell.outside;
+  const bool* clamped = cell.clamped;
   auto at = [&](int i, int j, int k) -> double {
-    return double(g.values[(base[0] + i) + int64_t(g.nx) * ((base[1] + j) + int64_t(g.ny) * (base[2] + k))]);
+    return sdf_node(g, cell.base[0] + i, cell.base[1] + j, cell.base[2] + k);
   };
   double c[2][2][2];
   for (int i = 0; i < 2; ++i)

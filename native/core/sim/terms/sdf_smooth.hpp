@@ -48,20 +48,15 @@ SF_HD void bspline3(double t, double w[4], double d[4], double dd[4]) {
 template <bool kHessian>
 SF_HD SdfSample2 sdf_sample_smooth(const SdfGridView& g, Vec3 p) {
   const double h = g.spacing;
-  double q[3] = {(p.x - g.origin[0]) / h, (p.y - g.origin[1]) / h, (p.z - g.origin[2]) / h};
+  const SdfCell cell = sdf_cell(g, p);
   const int n[3] = {g.nx, g.ny, g.nz};
-  double outside[3] = {0, 0, 0};
-  bool clamped[3] = {false, false, false};
+  const double* outside = cell.outside;
+  const bool* clamped = cell.clamped;
   int idx[3][4];
   double w[3][4], d[3][4], dd[3][4];
   for (int a = 0; a < 3; ++a) {
-    const double hi = double(n[a] - 1);
-    if (q[a] < 0) { outside[a] = q[a] * h; q[a] = 0; clamped[a] = true; }
-    else if (q[a] > hi) { outside[a] = (q[a] - hi) * h; q[a] = hi; clamped[a] = true; }
-    int b = int(floor(q[a]));
-    if (b > n[a] - 2) b = n[a] - 2;
-    if (b < 0) b = 0;
-    bspline3(q[a] - b, w[a], d[a], dd[a]);
+    const int b = cell.base[a];
+    bspline3(cell.t[a], w[a], d[a], dd[a]);
     for (int k = 0; k < 4; ++k) {
       int i = b - 1 + k;
       idx[a][k] = i < 0 ? 0 : (i > n[a] - 1 ? n[a] - 1 : i);  // replicate the border

@@ -422,7 +422,7 @@ class RunInputs:
     sim: dict = field(default_factory=dict)
     target: BodyInput | None = None
     strengths: dict = field(default_factory=dict)
-    opt: dict = field(default_factory=dict)
+    grade: dict = field(default_factory=dict)      # GradeSettings fields from the scene's settings
     device: str = "auto"
     method: str = "adjoint"     # seamfit.opt.grade's GradeSettings.method
     grade_options: dict = field(default_factory=dict)   # further GradeSettings fields
@@ -488,35 +488,13 @@ class DrapeOutput:
     fit: dict
 
 
-def default_edge_length_cm() -> float:
-    """seamfit's default mesh edge (cm), the one `seamfit grade` and `seamfit drape` use."""
-    try:
-        from seamfit.mesh.boundary import DEFAULT_EDGE_LENGTH_CM
-        return float(DEFAULT_EDGE_LENGTH_CM)
-    except Exception:   # seamfit not importable: the value it documents
-        return 3.0
-
-
-def fabric_defaults() -> dict:
-    """seamfit's default fabric (numbers shown in the Simulation panel)."""
-    try:
-        from seamfit.sim import Fabric
-        f = Fabric()
-        return {k: float(getattr(f, k)) for k in ("stretch_stiffness", "sewing_stiffness",
-                                                   "bending_stiffness", "density")}
-    except Exception:   # seamfit without the simulator: the values it documents
-        return {"stretch_stiffness": 1000.0, "sewing_stiffness": 8660.0,
-                "bending_stiffness": 1.0e-5, "density": 0.2}
-
-
 def _sim_objects(sim_cfg: dict, device: str, n_vertices: int = 0):
-    """seamfit's Fabric and SimSettings for the scene's simulation settings."""
+    """seamfit's Fabric and SimSettings for the scene's simulation settings (their fields by
+    name: "fabric" and SimSettings' own; "sdf_spacing" is the bodies' fields')."""
     sim = seamfit_module("sim")
     fabric = sim.Fabric(**{k: float(v) for k, v in sim_cfg.get("fabric", {}).items()})
-    opts = {"mu": float(sim_cfg.get("mu", 0.01)), "device": check_device(device, n_vertices)}
-    if sim_cfg.get("iterations"):
-        opts["max_iterations"] = int(sim_cfg["iterations"])
-    return fabric, sim.SimSettings(**opts)
+    opts = {k: v for k, v in sim_cfg.items() if k not in ("fabric", "sdf_spacing")}
+    return fabric, sim.SimSettings(**opts, device=check_device(device, n_vertices))
 
 
 def _simulator(mesh, sdf, sim_cfg: dict, device: str):
@@ -544,7 +522,7 @@ def _drape_progress(job, tracker):
 
 def base_drape(inp: RunInputs, job):
     """The base garment draped on the base body (cached): (mesh, DrapeResult, mesh_key)."""
-    spacing = inp.sim.get("sdf_spacing_m", 0.0025)
+    spacing = inp.sim["sdf_spacing"]
     tracker = seamfit_module("progress").for_drape(pattern_from_json(inp.pattern_json), float(inp.edge_length_cm),
                                                    float(spacing), device=inp.device, pictures=0)
     stage, callback = _drape_progress(job, tracker)
@@ -630,17 +608,14 @@ def grade_settings(inp: RunInputs):
     opt = seamfit_module("opt.grade")
     import dataclasses
     fields = {f.name for f in dataclasses.fields(opt.GradeSettings)}
-    given = {"strengths", "method", "edge_length_cm", "sdf_spacing", "inner_iterations", "checkpoint_every",
-             "max_outer_iterations", "device"}
+    given = {"strengths", "method", "edge_length_cm", "sdf_spacing", "device", *inp.grade}
     unknown = sorted(set(inp.grade_options) - (fields - given))
     if unknown:
         raise AddonError(f"More grading settings: {', '.join(unknown)}: not a setting of seamfit's grading here "
                          f"(it takes {', '.join(sorted(fields - given))})")
     settings = opt.GradeSettings(
         strengths=dict(inp.strengths), method=inp.method, edge_length_cm=float(inp.edge_length_cm),
-        sdf_spacing=float(inp.sim.get("sdf_spacing_m", 0.0025)),
-        inner_iterations=int(inp.opt["S"]), checkpoint_every=int(inp.opt["M"]),
-        max_outer_iterations=int(inp.opt["iterations"]), device=inp.device, **inp.grade_options)
+        sdf_spacing=float(inp.sim["sdf_spacing"]), device=inp.device, **inp.grade, **inp.grade_options)
     try:
         settings.validate()
     except ValueError as exc:
@@ -701,7 +676,7 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
     # The method is part of the result's key only: the distance fields and the base drape
     # it starts from are seamfit's, keyed without it, so a new method reuses them.
     key = digest(inp.pattern_json, round(inp.edge_length_cm, 6), inp.base.key, inp.target.key,
-                 inp.strengths, inp.opt, inp.sim, inp.method, inp.grade_options)
+                 inp.strengths, inp.grade, inp.sim, inp.method, inp.grade_options)
     from seamfit.errors import SolveError
 
     def make():

@@ -10,6 +10,8 @@ import numpy as np
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
 
+from seamfit import settings as seamfit_settings
+
 from . import compute, methods, presets, scene_io
 
 # Blender 4.2 keeps a reference to every PropertyGroup class after unregistering it (4.5 to
@@ -236,7 +238,17 @@ def _strength(name, desc, default):
 _DEFAULT_PRESET = presets.DEFAULT if presets.DEFAULT in _PRESETS else next(iter(_PRESETS))
 _default = _PRESETS[_DEFAULT_PRESET][1]
 
-_FABRIC = compute.fabric_defaults()
+
+
+def _setting(key: str):
+    """The scene property of seamfit's setting ``key`` (its label, default, unit and range
+    from the setting's one declaration, seamfit.settings)."""
+    kind = getattr(bpy.props, seamfit_settings.blender_kind(key))
+    return kind(**seamfit_settings.blender_property(key))
+
+
+# scene property -> seamfit setting (the property names are the ones saved in .blend files)
+SETTING_PROPS = {s.addon.prop: key for key, s in seamfit_settings.table().items() if s.addon is not None}
 
 
 class SEAMFIT_PG_run_target(bpy.types.PropertyGroup):
@@ -250,9 +262,7 @@ class SEAMFIT_PG_run_target(bpy.types.PropertyGroup):
 class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     pattern: PointerProperty(type=bpy.types.Collection, poll=_is_pattern, name="Pattern",
                              description="The base pattern that drape and adjust use")
-    edge_length_cm: FloatProperty(
-        name="Mesh resolution (cm)", default=compute.default_edge_length_cm(), min=0.3, max=20.0, precision=2,
-        description="Target edge length of the simulation mesh: smaller is finer and slower")
+    edge_length_cm: _setting("grade.edge_length_cm")
     base_body: PointerProperty(type=bpy.types.Object, poll=_is_mesh, name="Base body",
                                description="The body the base pattern was made for")
     target_body: PointerProperty(type=bpy.types.Object, poll=_is_mesh, name="Target body",
@@ -280,33 +290,17 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
     strength_pos: _strength("Positional", "Keeps every garment point where it sits on the body", _default[5])
     strength_seam: _strength("Seam length", "Keeps the two sides of every seam equally long", _default[6])
 
-    fabric_stretch: FloatProperty(
-        name="Stretch stiffness (N/m)", default=_FABRIC["stretch_stiffness"], min=1.0, soft_max=1e5,
-        description="In-plane tensile stiffness of the fabric; seamfit's default is a medium woven cotton")
-    fabric_sewing: FloatProperty(name="Seam stiffness (N/m)", default=_FABRIC["sewing_stiffness"], min=0.0,
-                                 soft_max=1e6, description="Stiffness of one sewing spring")
-    fabric_bending: FloatProperty(name="Bending stiffness (N·m)", default=_FABRIC["bending_stiffness"], min=0.0,
-                                  soft_max=1e-3, precision=7, description="Flexural rigidity of the fabric")
-    fabric_density: FloatProperty(name="Density (kg/m²)", default=_FABRIC["density"], min=0.001, soft_max=2.0,
-                                  precision=3, description="Weight per area of the fabric")
-    mu: FloatProperty(name="Barrier μ", default=0.01, min=1e-6, soft_max=1.0, precision=4,
-                      description="Strength of the log barrier that keeps cloth outside the body")
-    sim_iterations: IntProperty(name="Drape iterations", default=40000, min=1, soft_max=100000,
-                                description="Most simulation iterations of a drape")
-    sdf_spacing_mm: FloatProperty(name="Body grid (mm)", default=2.5, min=0.5, soft_max=20.0, precision=2,
-                                  description="Spacing of the bodies' signed distance fields (Wang 2018: 2.5 mm)")
-    steps_per_iteration: IntProperty(name="S (simulation steps)", default=8, min=1, soft_max=256,
-                                     description="Simulation iterations per outer iteration of the grading")
-    exact_every: IntProperty(name="M (exact every)", default=32, min=1, soft_max=256,
-                             description="Inexact outer iterations between two exact ones")
-    iterations: IntProperty(name="Outer iterations", default=128, min=1, soft_max=4096,
-                            description="Most outer iterations of the grading")
-    device: EnumProperty(name="Device", default="AUTO", items=[
-        ("AUTO", "Auto", "The GPU for large garments when one is present, otherwise the CPU"),
-        ("CPU", "CPU", "Run on the processor"),
-        ("CUDA", "CUDA", "Simulate, solve the adjoint and evaluate the costs on the NVIDIA GPU (stops with the "
-                 "reason if none can be used)"),
-    ])
+    fabric_stretch: _setting("fabric.stretch_stiffness")
+    fabric_sewing: _setting("fabric.sewing_stiffness")
+    fabric_bending: _setting("fabric.bending_stiffness")
+    fabric_density: _setting("fabric.density")
+    mu: _setting("sim.mu")
+    sim_iterations: _setting("sim.max_iterations")
+    sdf_spacing_mm: _setting("grade.sdf_spacing")
+    steps_per_iteration: _setting("grade.inner_iterations")
+    exact_every: _setting("grade.checkpoint_every")
+    iterations: _setting("grade.max_outer_iterations")
+    device: _setting("grade.device")
     grade_options: StringProperty(
         name="More grading settings", default="",
         description="Further settings of seamfit's grading (seamfit.opt.GradeSettings) as JSON, e.g. "
@@ -360,21 +354,18 @@ def _exact(value: float) -> float:
 
 
 def settings_dict(s: SEAMFIT_PG_settings) -> dict:
-    """The scene settings as plain data for a worker thread."""
-    return {
-        "edge_length_cm": _exact(s.edge_length_cm),
+    """The scene settings as plain data for a worker thread: each of seamfit's settings
+    under its owner (grade, sim, fabric) by its field name, in seamfit's units."""
+    out: dict = {"grade": {}, "sim": {}, "fabric": {}}
+    for prop, key in SETTING_PROPS.items():
+        owner, name = key.split(".")
+        out[owner][name] = seamfit_settings.from_blender(key, getattr(s, prop))
+    out.update({
         "strengths": {k: _exact(getattr(s, f"strength_{k}")) for k in presets.STRENGTH_KEYS},
-        "sim": {"fabric": {"stretch_stiffness": _exact(s.fabric_stretch),
-                           "sewing_stiffness": _exact(s.fabric_sewing),
-                           "bending_stiffness": _exact(s.fabric_bending),
-                           "density": _exact(s.fabric_density)},
-                "mu": _exact(s.mu), "iterations": int(s.sim_iterations),
-                "sdf_spacing_m": _exact(s.sdf_spacing_mm) / 1000.0},
-        "opt": {"S": int(s.steps_per_iteration), "M": int(s.exact_every), "iterations": int(s.iterations)},
         "method": methods.to_seamfit(s.method),
-        "device": s.device.lower(),
         "grade_options": _grade_options(s.grade_options),
-    }
+    })
+    return out
 
 
 def _grade_options(text: str) -> dict:

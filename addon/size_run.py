@@ -31,7 +31,7 @@ def size_run_task(context) -> solve.Task:
     base_name = s.pattern.name
     key = compute.digest("size_run", inputs.pattern_json, round(inputs.edge_length_cm, 6), inputs.base.key,
                          [t.key if isinstance(t, compute.BodyInput) else t for t in targets], inputs.sim,
-                         inputs.strengths, inputs.opt, inputs.method, inputs.grade_options, inputs.device)
+                         inputs.strengths, inputs.grade, inputs.method, inputs.grade_options, inputs.device)
     slot = scene_io.slot_name("size_run", base_name)
     same = scene_io.reusable(slot, key)
     if same is not None:        # the same inputs: the result in the scene stands, nothing is computed

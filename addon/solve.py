@@ -48,11 +48,14 @@ def _run_inputs(context, with_target: bool) -> compute.RunInputs:
     dxf_io.check_drapable(pattern)      # a DXF pattern: its stitches confirmed, its panels placed
     depsgraph = context.evaluated_depsgraph_get()
     cfg = props.settings_dict(s)
+    grade = dict(cfg["grade"])
+    edge, device, spacing = grade.pop("edge_length_cm"), grade.pop("device"), grade.pop("sdf_spacing")
     return compute.RunInputs(
         pattern_name=coll.name, pattern_json=compute.pattern_to_json(pattern),
-        edge_length_cm=cfg["edge_length_cm"], base=capture_body(s.base_body, depsgraph),
-        sim=cfg["sim"], target=capture_body(s.target_body, depsgraph) if with_target else None,
-        strengths=cfg["strengths"], opt=cfg["opt"], device=cfg["device"], method=cfg["method"],
+        edge_length_cm=edge, base=capture_body(s.base_body, depsgraph),
+        sim={**cfg["sim"], "fabric": cfg["fabric"], "sdf_spacing": spacing},
+        target=capture_body(s.target_body, depsgraph) if with_target else None,
+        strengths=cfg["strengths"], grade=grade, device=device, method=cfg["method"],
         grade_options=cfg["grade_options"])
 
 
@@ -60,7 +63,7 @@ def _inputs_key(kind: str, inp: compute.RunInputs) -> str:
     """What a result depends on: the same key means the same result."""
     target = inp.target.key if inp.target is not None else ""
     return compute.digest(kind, inp.pattern_json, round(inp.edge_length_cm, 6), inp.base.key, target, inp.sim,
-                          inp.device, *((inp.strengths, inp.opt, inp.method, inp.grade_options) if kind == "adjust" else ()))
+                          inp.device, *((inp.strengths, inp.grade, inp.method, inp.grade_options) if kind == "adjust" else ()))
 
 
 def _place(ctx, slot: str, key: str, name: str, build) -> tuple:

@@ -35,9 +35,6 @@ HOW_TO_RUN = ("it needs Blender's Python: run `blender --background --python scr
 # The options the add-on's scene settings hold; the others go to its further grading settings.
 _SCENE_OPTIONS = {"method", "preset", "fix", "cur", "dis", "smo", "str", "pos", "seam", "edge_length",
                   "sdf_spacing", "inner_iterations", "checkpoint_every", "max_iterations", "device"}
-_GRADE_SETTINGS = {"start": "start", "sdf_region": "sdf_region", "sdf_margin": "sdf_region_margin",
-                   "time_budget": "time_budget_s", "adjoint_forcing": "adjoint_forcing",
-                   "stop_move_mm": "stop_move_mm"}
 _temporary: list[str] = []
 _quiet = False
 
@@ -166,19 +163,21 @@ def _apply_settings(s, args, addon) -> None:
     s.method = addon.methods.from_seamfit(args.method)
     if args.preset != "auto":       # auto: the import picked the preset for the garment's kind
         s.strength_preset = args.preset
-    for key in ("fix", "cur", "dis", "smo", "str", "pos", "seam"):
+    for key in addon.presets.STRENGTH_KEYS:
         if getattr(args, key) is not None:
             setattr(s, f"strength_{key}", getattr(args, key))
-    s.edge_length_cm = args.edge_length
-    s.sdf_spacing_mm = 1000.0 * args.sdf_spacing
-    s.steps_per_iteration = args.inner_iterations
-    s.exact_every = args.checkpoint_every
-    s.iterations = args.max_iterations
-    s.device = args.device.upper()
-    from seamfit.opt.grade import GradeSettings
-    d = GradeSettings()
-    extra = {field: getattr(args, name) for name, field in _GRADE_SETTINGS.items()
-             if getattr(args, name) != getattr(d, field)}
+    # Every other grading setting: on its scene property where the add-on shows it, else
+    # (when not the default) in More grading settings.
+    from seamfit import settings
+    extra = {}
+    for st in settings.for_command("batch"):
+        if st.owner != "grade" or st.name in ("method", "preset"):
+            continue
+        value = getattr(args, st.dest)
+        if st.addon is not None:
+            setattr(s, st.addon.prop, settings.to_blender(f"grade.{st.name}", value))
+        elif value != st.default:
+            extra[st.name] = value
     s.grade_options = json.dumps(extra) if extra else ""
 
 

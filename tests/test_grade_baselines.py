@@ -121,7 +121,7 @@ def test_fixed_point_reduces_its_mismatch(fixed_point_cli):
 
 
 def test_unknown_method_is_refused_clearly(tmp_path, capsys):
-    with pytest.raises(SolveError, match="unknown grading method 'newton'.*adjoint, two-phase, fixed-point"):
+    with pytest.raises(SolveError, match="unknown method 'newton'.*adjoint, two-phase, fixed-point"):
         grade(load_pattern(PATTERN), load_body(B0), load_body(B1), GradeSettings(method="newton"))
     with pytest.raises(SystemExit) as exc:
         main(["grade", str(PATTERN), "--base-body", str(B0), "--target-body", str(B1),

@@ -409,5 +409,5 @@ def test_device_settings_are_validated():
     mesh, _ = tube_sim(sticking=False)
     with pytest.raises(SolveError, match="unknown device"):
         Simulator(mesh, None, settings=SimSettings(device="tpu"))
-    with pytest.raises(SolveError, match="unknown solver method"):
+    with pytest.raises(SolveError, match="unknown method .gauss-seidel.; choose one of chebyshev, newton"):
         Simulator(mesh, None, settings=SimSettings(device="cuda", method="gauss-seidel"))

@@ -96,7 +96,7 @@ class BaselineDrapes:
         xbar, _ = base_drape(self.mesh, base_pattern, base_body, base_sdf, Fabric(), self.sim_settings)
         self.xtilde = transfer_garment(xbar, base_body, target_body, settings.bandwidth)
         self.sim = Simulator(self.mesh, target_sdf, Fabric(), self.sim_settings)
-        self.tolerance = settings.exact_tolerance or self.sim_settings.tolerance
+        self.tolerance = self.sim_settings.tolerance
         self._ease = ease_report
         self.base_ease = ease_report(base_body, xbar, self.mesh.triangles)
 

@@ -31,9 +31,9 @@ garment's weight (relative residual). See docs/simulator.md.
 
 
 def register(subparsers) -> None:
-    from ..mesh.boundary import DEFAULT_EDGE_LENGTH_CM
-    from ..sim import Fabric, SimSettings
-    fab, st = Fabric(), SimSettings()
+    from .. import settings
+    from ..sim import SimSettings
+    st = SimSettings()
     p = subparsers.add_parser(
         "drape", help="sew a pattern and dress it on a body (OBJ, report, picture)",
         description="Mesh a pattern, dress it on a body with the quasistatic simulator and write "
@@ -43,10 +43,7 @@ def register(subparsers) -> None:
     p.add_argument("body", metavar="BODY", type=Path, help="body mesh (.obj or .ply, metres, Z up, facing -Y)")
     p.add_argument("--out", metavar="DIR", type=Path, required=True,
                    help="output folder (created if missing): garment.obj, report.json, drape.png")
-    p.add_argument("--edge-length", metavar="CM", type=float, default=DEFAULT_EDGE_LENGTH_CM,
-                   help=f"target triangle edge length in cm (default {DEFAULT_EDGE_LENGTH_CM})")
-    p.add_argument("--method", choices=("chebyshev", "newton"), default=st.method,
-                   help=f"solver (default {st.method})")
+    settings.add_options(p, "drape")
     p.add_argument("--max-iterations", metavar="N", type=int, default=None,
                    help=f"iteration budget per stage (default {st.max_iterations} for chebyshev, "
                         f"{st.newton_max_iterations} for newton)")
@@ -55,29 +52,9 @@ def register(subparsers) -> None:
                         "(see docs/simulator.md)")
     p.add_argument("--no-polish", action="store_true",
                    help="chebyshev: no Newton polish when the settle stage stops above the tolerance")
-    p.add_argument("--max-seconds", metavar="S", type=float, default=0.0,
-                   help="time budget per stage in seconds (default: none)")
-    p.add_argument("--tolerance", metavar="R", type=float, default=st.tolerance,
-                   help=f"relative residual |f|/|m g| to stop at (default {st.tolerance:g})")
     p.add_argument("--dress", choices=("auto", "wrap", "none"), default="auto",
                    help="start positions: wrap hint placements around the body (auto), wrap every "
                         "panel (wrap), or use the placement as is (none)")
-    p.add_argument("--stretch-stiffness", metavar="N/M", type=float, default=fab.stretch_stiffness,
-                   help=f"fabric tensile stiffness (default {fab.stretch_stiffness:g} N/m)")
-    p.add_argument("--sewing-stiffness", metavar="N/M", type=float, default=fab.sewing_stiffness,
-                   help=f"stiffness of one sewing spring (default {fab.sewing_stiffness:g} N/m)")
-    p.add_argument("--bending-stiffness", metavar="NM", type=float, default=fab.bending_stiffness,
-                   help=f"flexural rigidity (default {fab.bending_stiffness:g} N m)")
-    p.add_argument("--density", metavar="KG/M2", type=float, default=fab.density,
-                   help=f"areal density (default {fab.density:g} kg/m^2)")
-    p.add_argument("--mu", type=float, default=st.mu,
-                   help=f"dimensionless barrier strength (default {st.mu:g}: 1 mm gap under the cloth's own weight)")
-    p.add_argument("--sdf-spacing", metavar="M", type=float, default=0.0025,
-                   help="body SDF grid spacing in metres (default 0.0025)")
-    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto",
-                   help="where the Chebyshev stages run (default auto: the GPU when one is present and "
-                        "the garment is large enough to pay; the Newton polish runs on the CPU); cuda "
-                        "fails at once with the reason when no GPU or CUDA build is present")
     p.add_argument("--fail-unconverged", action="store_true",
                    help="exit 1 when the drape stopped before settling (the files are still written); "
                         "default: exit 0 whenever the files are written")
@@ -88,19 +65,13 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from .. import settings
     from ..device import check_device
-    from .checks import checked_body, checked_pattern, number, whole
+    from .checks import checked_body, checked_pattern, whole
 
     check_device(args.device)  # fails at once, with the reason, when cuda cannot run here
-    number("--edge-length", args.edge_length)
-    number("--tolerance", args.tolerance)
-    number("--sdf-spacing", args.sdf_spacing)
-    number("--max-seconds", args.max_seconds, allow_zero=True)
-    for option in ("stretch_stiffness", "sewing_stiffness", "bending_stiffness", "density"):
-        number("--" + option.replace("_", "-"), getattr(args, option), allow_zero=option == "bending_stiffness")
+    settings.check_options(args, "drape")
     whole("--max-iterations", args.max_iterations, 0)
-    from ..sim import SimSettings
-    SimSettings(method=args.method, tolerance=args.tolerance, mu=args.mu).validate()   # --mu in [0, 1]
     out = Path(args.out)
     t0 = time.perf_counter()
 
@@ -131,6 +102,7 @@ def run(args) -> int:
 
 def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -> int:
     """Mesh, dress and settle; write the set into ``tmp`` (moved to ``out`` afterwards)."""
+    from .. import settings as table
     from ..device import choose_device
     from ..fileio import atomic_write_text
     from ..mesh import build_sewn_mesh, write_obj
@@ -159,10 +131,8 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -
     sdf, field = body_field(body, args.sdf_spacing, "body", device=device)
     say(f"body SDF: {'x'.join(str(d) for d in sdf.values.shape[::-1])} nodes at {sdf.spacing * 1000:g} mm"
         + (f" ({field['device_note']})" if field.get("device_note") else ""))
-    fabric = Fabric(stretch_stiffness=args.stretch_stiffness, sewing_stiffness=args.sewing_stiffness,
-                    bending_stiffness=args.bending_stiffness, density=args.density)
-    settings = SimSettings(method=args.method, tolerance=args.tolerance, mu=args.mu,
-                           max_seconds=args.max_seconds, polish=not args.no_polish, device=device)
+    fabric = Fabric(**table.from_options(args, "fabric", "drape"))
+    settings = SimSettings(**table.from_options(args, "sim", "drape"), polish=not args.no_polish, device=device)
     if args.max_iterations is not None:
         if args.method == "newton":
             settings.newton_max_iterations = args.max_iterations

@@ -63,67 +63,20 @@ def register(subparsers) -> None:
 
 
 def add_grade_options(p, *, truth: bool) -> None:
-    """The search, mesh, field, device and output options, defined once for ``grade`` and
-    ``grade-run`` (``truth``: also --truth, a pattern drafted for the one target)."""
-    from ..opt.grade import METHODS, STARTS, GradeSettings
-    from ..opt.presets import PRESETS
-    d = GradeSettings()
-    p.add_argument("--method", choices=METHODS, default=d.method,
-                   help=f"search: {', '.join(METHODS)} (default {d.method}; the other two are baselines "
-                        "for comparison, see below)")
-    p.add_argument("--start", choices=STARTS, default=d.start,
-                   help="where the search starts and what R^fix / R^cur hold it to: level (the base pattern "
-                        "stretched level by level by how much the body grew there) or base (the paper's start "
-                        f"from the base pattern); default {d.start}, see docs/method.md")
-    p.add_argument("--preset", choices=["auto", *sorted(PRESETS)], default=d.preset,
-                   help=f"strength preset (default {d.preset}: by the pattern's garment type, see below)")
-    for name in ("fix", "cur", "dis", "smo", "str", "pos", "seam"):
+    """The search, mesh, field, device and output options, defined once for ``grade``,
+    ``grade-run`` and the batch jobs (the settings from seamfit.settings' table; ``truth``:
+    also --truth, a pattern drafted for the one target)."""
+    from .. import settings
+    from ..opt.costs import STRENGTH_NAMES
+    settings.add_options(p, "grade")
+    for name in STRENGTH_NAMES:
         p.add_argument(f"--{name}", type=float, default=None, metavar="DELTA",
                        help=f"override the preset's {name} strength " +
                             ("(> 0: R^fix also shapes the search's preconditioner)" if name == "fix"
                              else "(0 skips the term)"))
-    p.add_argument("--edge-length", metavar="CM", type=float, default=d.edge_length_cm,
-                   help=f"mesh edge length in cm (default {d.edge_length_cm})")
-    p.add_argument("--coarse-edge-length", metavar="CM", type=float, default=d.coarse_edge_length_cm,
-                   help="a mesh at least twice as fine is graded at this edge length first and searched "
-                        f"from there (default {d.coarse_edge_length_cm}; 0: grade every mesh directly)")
-    p.add_argument("--fine-iterations", metavar="N", type=int, default=d.fine_outer_iterations,
-                   help="outer iterations on the finer mesh after its coarse grading "
-                        f"(default {d.fine_outer_iterations})")
-    p.add_argument("--sdf-spacing", metavar="M", type=float, default=d.sdf_spacing,
-                   help=f"body SDF spacing in metres (default {d.sdf_spacing})")
-    p.add_argument("--sdf-region", choices=("auto", "body", "garment"), default=d.sdf_region,
-                   help="where the body SDFs are built: body (the whole body), garment (cut to the garment's "
-                        "height band plus --sdf-margin: fine spacings for fine meshes) or auto (the whole body "
-                        f"unless its grid would exceed the SDF builder's node limit; default {d.sdf_region})")
-    p.add_argument("--sdf-margin", metavar="M", type=float, default=d.sdf_region_margin,
-                   help="with a cropped field, how far above and below the garment it reaches, in metres "
-                        f"(default {d.sdf_region_margin})")
-    p.add_argument("--inner-iterations", "-S", metavar="S", type=int, default=d.inner_iterations,
-                   help=f"simulation iterations per outer iteration (default {d.inner_iterations})")
-    p.add_argument("--checkpoint-every", "-M", metavar="M", type=int, default=d.checkpoint_every,
-                   help=f"exact simulation every M outer iterations (default {d.checkpoint_every})")
-    p.add_argument("--max-iterations", metavar="N", type=int, default=d.max_outer_iterations,
-                   help=f"outer iteration budget (default {d.max_outer_iterations})")
-    p.add_argument("--stop-move-mm", metavar="MM", type=float, default=d.stop_move_mm,
-                   help=f"stop once a checkpoint moved no pattern point more than MM since the last "
-                        f"one (default {d.stop_move_mm}; 0: run to the objective's own stop or the budget)")
-    p.add_argument("--time-budget", metavar="S", type=float, default=d.time_budget_s,
-                   help="stop after S seconds (default: none)")
-    p.add_argument("--report-base-pattern", action="store_true", default=d.evaluate_base_pattern,
-                   help="also drape the unchanged base pattern on the target body and report its objective "
-                        "(objective_base_pattern; one more drape)")
     if truth:
         p.add_argument("--truth", metavar="PATTERN", type=Path, default=None,
                        help="a pattern drafted for the target body: report landmark errors against it")
-    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default=d.device,
-                   help="where the grading loop runs (default auto: the GPU when one is present and the garment "
-                        "is large enough to pay); cuda fails at once with the reason when no GPU or CUDA build "
-                        "is present")
-    p.add_argument("--adjoint-forcing", metavar="F", type=float, default=d.adjoint_forcing,
-                   help="on the GPU, solve the adjoint at inexact states only to F x the state's residual "
-                        "(default %(default)s; 0: to 1e-8 everywhere, as the CPU's direct solve, 4x slower "
-                        "at 60K triangles, docs/gpu.md)")
     p.add_argument("--fail-unconverged", action="store_true",
                    help="exit 1 when a search stopped at its budget before converging (the results are "
                         "still written); default: exit 0 whenever the results are written")
@@ -190,39 +143,26 @@ def check_grade_options(args) -> None:
 
 
 def check_grade_numbers(args) -> None:
-    """The numeric options of :func:`add_grade_options` (also the batch script's, which
-    resolves its device inside Blender)."""
-    from .checks import number, whole
-    number("--edge-length", args.edge_length)
-    number("--sdf-spacing", args.sdf_spacing)
-    number("--sdf-margin", args.sdf_margin, allow_zero=True)
-    number("--time-budget", args.time_budget, allow_zero=True)
-    number("--adjoint-forcing", args.adjoint_forcing, allow_zero=True)
-    number("--stop-move-mm", args.stop_move_mm, allow_zero=True)
-    whole("--inner-iterations", args.inner_iterations, 1)
-    whole("--checkpoint-every", args.checkpoint_every, 1)
-    whole("--max-iterations", args.max_iterations, 0)
+    """The options of :func:`add_grade_options`, each against its setting's range (also the
+    batch script's, which resolves its device inside Blender)."""
+    from .. import settings
+    settings.check_options(args, "grade")
     _strength_overrides(args)
 
 
 def settings_from_args(args, base_pattern):
     """The GradeSettings the options of :func:`add_grade_options` ask for, validated."""
     from dataclasses import replace
+
+    from .. import settings as seamfit_settings
     from ..opt.grade import GradeSettings
     from ..opt.presets import preset
     strengths = preset(args.preset, base_pattern.garment_type).strengths
     overrides = _strength_overrides(args)
     if overrides:
         strengths = replace(strengths, **overrides)
-    settings = GradeSettings(preset=args.preset, strengths=strengths, method=args.method, start=args.start,
-                             edge_length_cm=args.edge_length, coarse_edge_length_cm=args.coarse_edge_length,
-                             fine_outer_iterations=args.fine_iterations,
-                             sdf_spacing=args.sdf_spacing, sdf_region=args.sdf_region,
-                             sdf_region_margin=args.sdf_margin, inner_iterations=args.inner_iterations,
-                             checkpoint_every=args.checkpoint_every, max_outer_iterations=args.max_iterations,
-                             time_budget_s=args.time_budget, device=args.device,
-                             adjoint_forcing=args.adjoint_forcing, stop_move_mm=args.stop_move_mm,
-                             evaluate_base_pattern=args.report_base_pattern)
+    values = seamfit_settings.from_options(args, "grade", "grade")
+    settings = GradeSettings(**{**values, "strengths": strengths})
     settings.validate()
     return settings
 
@@ -231,9 +171,9 @@ def _strength_overrides(args) -> dict:
     """--fix ... --seam as given, each checked as the strengths themselves check it; --fix
     also > 0: R^fix shapes the search's preconditioner, which needs it positive definite."""
     from ..errors import SeamfitError
-    from ..opt.costs import Strengths
+    from ..opt.costs import STRENGTH_NAMES, Strengths
     overrides = {}
-    for name in ("fix", "cur", "dis", "smo", "str", "pos", "seam"):
+    for name in STRENGTH_NAMES:
         value = getattr(args, name)
         if value is None:
             continue

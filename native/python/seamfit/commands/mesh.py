@@ -23,7 +23,7 @@ See docs/meshing.md.
 
 
 def register(subparsers) -> None:
-    from ..mesh.boundary import DEFAULT_EDGE_LENGTH_CM
+    from .. import settings
     p = subparsers.add_parser(
         "mesh", help="triangulate a pattern into a sewn-ready mesh (OBJ, SVG, report)",
         description="Triangulate every panel of a pattern, with matching vertices along both "
@@ -32,8 +32,7 @@ def register(subparsers) -> None:
     p.add_argument("pattern", metavar="PATTERN", type=Path, help="pattern file (.json)")
     p.add_argument("--out", metavar="DIR", type=Path, required=True,
                    help="output folder (created if missing): mesh.obj, pattern.svg, report.json")
-    p.add_argument("--edge-length", metavar="CM", type=float, default=DEFAULT_EDGE_LENGTH_CM,
-                   help=f"target triangle edge length in cm (default {DEFAULT_EDGE_LENGTH_CM})")
+    settings.add_options(p, "mesh")
     add_force_argument(p)
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=run)

@@ -46,6 +46,10 @@ class Strengths:
         raise TypeError(f"cannot read strengths from {type(s).__name__}")
 
 
+# The strengths' names in the paper's order, for the command line and the add-on.
+STRENGTH_NAMES = tuple(f.name for f in fields(Strengths))
+
+
 def positional_weights(mesh) -> np.ndarray:
     """Default u_i: POSITIONAL_WEIGHT_BOUNDARY on panel boundaries, 1 inside."""
     b = np.asarray(mesh.boundary, dtype=bool)

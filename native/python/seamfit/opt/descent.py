@@ -36,6 +36,15 @@ def _on_gpu(ctx) -> bool:
 # noise on an exact fit.
 OBJECTIVE_ROUNDOFF = 1e-12
 
+# The loop's own step control (the solver's, not a user's: docs/optimizer.md).
+STEP = 1.0                 # s at the start: a step along -P^-1 grad
+MAX_MOVE_MM = 1.0          # trust region at s = 1: no boundary vertex moves more per iteration
+STEP_GROWTH = 1.5          # s grows by this after an accepted checkpoint ...
+MAX_STEP = 16.0            # ... up to this
+MIN_STEP = 1e-4            # backtracking below this step: converged, nothing decreases f
+MAX_INNER_ITERATIONS = 512  # S doubles on a backtrack up to this
+REL_TOL = 1e-3             # stop when a checkpoint lowers f by less than REL_TOL * f
+
 
 def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOutcome:
     """Algorithm 1's loop on ``objective`` (an ``Objective``) from the exact drape x0 of
@@ -57,7 +66,7 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
         return f_search if same else ctx.objective.objective(xx, th)[0]
 
     checkpoints = [(0, f0, grading_f(x, theta, f0), None)]
-    S, s = settings.inner_iterations, settings.step
+    S, s = settings.inner_iterations, STEP
     k = 0              # accepted outer iterations
     work = 0           # outer iterations done, discarded ones included
     backtracks, converged, message = 0, False, "iteration limit"
@@ -91,7 +100,7 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
         # so an inexact state far from equilibrium cannot throw the pattern away.
         # The trust radius shrinks and grows with s, so backtracking really shortens steps.
         dmax = pg.max_abs() if gpu else (float(np.max(np.abs(pg))) if pg.size else 0.0)
-        step = s if dmax == 0 else s * min(1.0, 1e-3 * settings.max_move_mm / dmax)
+        step = s if dmax == 0 else s * min(1.0, 1e-3 * MAX_MOVE_MM / dmax)
         if gpu:
             theta_w.axpy(-step, pg)
         else:
@@ -131,11 +140,11 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
             theta, x, x_res = ck_theta.copy(), ck_x.copy(), ck_res
             theta_w, x_w = _restart(gpu, theta_w, x_w, theta, x)
             sim.set_pattern(param.pattern(theta))
-            S = min(2 * S, settings.max_inner_iterations)
+            S = min(2 * S, MAX_INNER_ITERATIONS)
             s *= 0.5
             record(f, True)
             ctx.tell(stage=label, iteration=k, objective=f, exact=True, backtrack=True, state=sim_state)
-            if s < settings.min_step:
+            if s < MIN_STEP:
                 converged, message = True, "no further decrease at the smallest step"
                 break
             continue
@@ -154,8 +163,8 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
         # time-against-error benchmark); references, not copies.
         ctx.tell(stage=label, iteration=k, objective=f, exact=True, state=sim_state, theta=ck_theta, x=ck_x)
         S = max(S // 2, settings.min_inner_iterations)
-        s = min(s * settings.step_growth, settings.max_step)
-        if decrease <= settings.rel_tol * abs(f):
+        s = min(s * STEP_GROWTH, MAX_STEP)
+        if decrease <= REL_TOL * abs(f):
             converged, message = True, "objective no longer falls"
             break
         if moved_mm <= settings.stop_move_mm:

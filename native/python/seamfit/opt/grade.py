@@ -25,6 +25,7 @@ from ..errors import PatternError, SolveError
 from ..mesh.boundary import DEFAULT_EDGE_LENGTH_CM
 from ..pattern import Pattern
 from ..sim.model import Fabric, SimSettings
+from ..settings import DRAPE, GRADE, Addon, check_fields, setting
 from ..sim.multilevel import prolong
 from .baselines import fixed_point, two_phase
 from .coarse_start import coarse_edge_for, fine_settings, grade_coarse
@@ -34,7 +35,7 @@ from ..device_arrays import host
 from .initialize import initialize_pattern
 from .output import GradeResult, SearchOutcome, finish
 from .prepare import ProgressFn, base_drape, prepare
-from .presets import preset
+from .presets import PRESETS, preset
 from .sdf_region import GARMENT_REGION_MARGIN, check_sdf_region, garment_outside_field
 from .transfer import DEFAULT_BANDWIDTH
 
@@ -47,61 +48,84 @@ __all__ = ["METHODS", "GradeResult", "GradeSettings", "ProgressFn", "base_drape"
 @dataclass
 class GradeSettings:
     """Controls of one grading run. Strength coefficients come from ``preset`` unless
-    ``strengths`` is given (Strengths or a dict with fix, cur, dis, smo, str, pos, seam)."""
-    preset: str = "auto"               # auto: by the pattern's garment_type (presets.preset_for_garment)
+    ``strengths`` is given (Strengths or a dict with fix, cur, dis, smo, str, pos, seam).
+    The user's settings are declared with ``setting`` (seamfit.settings: their help, unit,
+    range and front ends, docs/settings.md); the other fields are the solver's own."""
+    preset: str = setting(
+        "auto", "strength preset: auto picks one by the pattern's garment type (see below)",
+        choices=("auto", *sorted(PRESETS)), flag="--preset", commands=GRADE)
     strengths: Optional[object] = None
-    method: str = "adjoint"            # adjoint | two-phase | fixed-point
-    # theta^(0) and the anchor of R^fix / R^cur: "level" (the base pattern stretched level
-    # by level by the bodies' girths and heights, seamfit.opt.level_scale; median landmark
-    # error 1.81 cm against 2.50 on the 57 shared cases, docs/accuracy_results.md) or
-    # "base" (the paper: Section 7's initialization from the base pattern).
-    start: str = "level"
-    edge_length_cm: float = DEFAULT_EDGE_LENGTH_CM
-    # Coarse-to-fine (seamfit.opt.coarse_start), adjoint method only: a mesh at least twice as
-    # fine as coarse_edge_length_cm (0: every mesh graded directly) is graded at that edge
-    # first and its pattern carried over; the finer mesh then takes fine_outer_iterations.
-    coarse_edge_length_cm: float = DEFAULT_EDGE_LENGTH_CM
-    fine_outer_iterations: int = 0
-    sdf_spacing: float = 0.0025        # the paper's 2.5 mm
-    # Where the body fields are built: "body" (whole body), "garment" (cut to the garment's
-    # height band +- sdf_region_margin m) or "auto" (whole body unless its grid would exceed
-    # the SDF builder's node limit; docs/grading.md, "The body fields' region").
-    sdf_region: str = "auto"
-    sdf_region_margin: float = GARMENT_REGION_MARGIN
-    inner_iterations: int = 8          # S: simulation iterations per outer iteration
-    min_inner_iterations: int = 2
-    max_inner_iterations: int = 512
-    checkpoint_every: int = 32         # M: exact simulation every M outer iterations
+    method: str = setting(
+        "adjoint", "search: adjoint (the paper's Algorithm 1); two-phase and fixed-point are baselines for "
+        "comparison, see below", choices=METHODS, flag="--method", commands=GRADE)
+    # theta^(0) and the anchor of R^fix / R^cur (docs/method.md, "Level scaling")
+    start: str = setting(
+        "level", "where the search starts and what R^fix / R^cur hold it to: level (the base pattern stretched "
+        "level by level by how much the body grew there) or base (the paper's start from the base pattern)",
+        choices=STARTS, flag="--start", commands=GRADE)
+    edge_length_cm: float = setting(
+        DEFAULT_EDGE_LENGTH_CM, "mesh edge length: smaller is finer and slower", unit="cm", low=0, low_open=True,
+        flag="--edge-length", metavar="CM", commands=GRADE + DRAPE + ("mesh",),
+        addon=Addon("edge_length_cm", "Mesh resolution (cm)", minimum=0.3, maximum=20.0, precision=2))
+    # Coarse-to-fine (seamfit.opt.coarse_start), adjoint method only.
+    coarse_edge_length_cm: float = setting(
+        DEFAULT_EDGE_LENGTH_CM, "a mesh at least twice as fine is graded at this edge length first and searched "
+        "from there (0: every mesh graded directly)", unit="cm", low=0, flag="--coarse-edge-length",
+        metavar="CM", commands=GRADE)
+    fine_outer_iterations: int = setting(
+        0, "outer iterations on the finer mesh after its coarse grading", low=0, flag="--fine-iterations",
+        metavar="N", commands=GRADE)
+    sdf_spacing: float = setting(
+        0.0025, "spacing of the bodies' signed distance fields (the paper's 2.5 mm)", unit="m", low=0,
+        low_open=True, flag="--sdf-spacing", metavar="M", commands=GRADE + DRAPE,
+        addon=Addon("sdf_spacing_mm", "Body grid (mm)", scale=1000.0, minimum=0.5, soft_max=20.0, precision=2))
+    # docs/grading.md, "The body fields' region"
+    sdf_region: str = setting(
+        "auto", "where the body fields are built: body (the whole body), garment (cut to the garment's height "
+        "band plus --sdf-margin: fine spacings for fine meshes) or auto (the whole body unless its grid would "
+        "exceed the SDF builder's node limit)", choices=("auto", "body", "garment"), flag="--sdf-region",
+        commands=GRADE)
+    sdf_region_margin: float = setting(
+        GARMENT_REGION_MARGIN, "with a cropped field, how far above and below the garment it reaches", unit="m",
+        low=0, flag="--sdf-margin", metavar="M", commands=GRADE)
+    inner_iterations: int = setting(
+        8, "S: simulation iterations per outer iteration", low=1, flag="--inner-iterations", short="-S",
+        metavar="S", commands=GRADE, addon=Addon("steps_per_iteration", "S (simulation steps)", soft_max=256))
+    min_inner_iterations: int = 2      # S never halves below this after an accepted checkpoint
+    checkpoint_every: int = setting(
+        32, "M: an exact simulation every M outer iterations", low=1, flag="--checkpoint-every", short="-M",
+        metavar="M", commands=GRADE, addon=Addon("exact_every", "M (exact every)", soft_max=256))
     # The knee of run time against error on the shared cases (docs/accuracy_time.md): past
     # 128 the search converges more cases and ends farther from the drafts.
-    max_outer_iterations: int = 128
-    fix_in_objective: bool = True      # R^fix in f (the paper) or only in the preconditioner P (docs/grading.md)
-    seam_in_preconditioner: bool = True   # add R^seam's Gauss-Newton Hessian at the base to P (docs/optimizer.md)
-    step: float = 1.0                  # s: step along -P^-1 grad
-    max_move_mm: float = 1.0           # trust region at s = 1: no boundary vertex moves more per iteration
-    step_growth: float = 1.5
-    max_step: float = 16.0
-    min_step: float = 1e-4
-    rel_tol: float = 1e-3              # stop when a checkpoint lowers f by less than rel_tol * f
-    # stop when an accepted checkpoint moved no pattern point more than this (mm) since the
-    # one before: the pattern has stopped moving, whatever f still does (0: never)
-    stop_move_mm: float = 0.1
-    exact_tolerance: Optional[float] = None   # residual of exact solves (default: SimSettings.tolerance)
+    max_outer_iterations: int = setting(
+        128, "most outer iterations of the search", low=0, flag="--max-iterations", metavar="N", commands=GRADE,
+        addon=Addon("iterations", "Outer iterations", minimum=1, soft_max=4096))
+    stop_move_mm: float = setting(
+        0.1, "stop once a checkpoint moved no pattern point more than this since the one before (0: run to "
+        "the objective's own stop or the budget)", unit="mm", low=0, flag="--stop-move-mm", metavar="MM",
+        commands=GRADE)
     bandwidth: float = DEFAULT_BANDWIDTH      # B of Eq. 15 (m)
-    # Also drape the unchanged pattern on the target, for the report's objective_base_pattern
-    # only (the baselines drape it anyway): one more drape, 1.4 s of a 60K-triangle grading on
-    # an H100, that changes no result.
-    evaluate_base_pattern: bool = False
-    time_budget_s: float = 0.0                # 0: none
-    fixed_point_relaxation: float = 1.0       # fixed-point: fraction of each pattern update taken
-    fixed_point_tolerance_mm: float = 0.1     # fixed-point: converged when no boundary vertex moves more
-    fixed_point_regularize: bool = True       # fixed-point: R^fix + R^cur in the pattern update
-    device: str = "auto"                      # simulations on auto | cpu | cuda (seamfit.device)
-    # GPU adjoint at inexact states: MINRES tolerance max(1e-8, adjoint_forcing * residual),
-    # no tighter than the state itself is resolved (inexact Newton's forcing rule). At settled
-    # states it is 1e-8 always. 0: 1e-8 everywhere, as the CPU's direct solve; 0.01 (default)
-    # grades the 60K skirt 4x faster to a lower objective (docs/gpu.md).
-    adjoint_forcing: float = 0.01
+    # One more drape, 1.4 s of a 60K-triangle grading on an H100, that changes no result.
+    evaluate_base_pattern: bool = setting(
+        False, "also drape the unchanged base pattern on the target body and report its objective "
+        "(objective_base_pattern; one more drape)", flag="--report-base-pattern", commands=GRADE)
+    time_budget_s: float = setting(
+        0.0, "stop after this many seconds (0: no limit)", unit="s", low=0, flag="--time-budget", metavar="S",
+        commands=GRADE)
+    device: str = setting(
+        "auto", "where the simulations and the search run: auto (the GPU when one is present and the garment is "
+        "large enough to pay), cpu or cuda (fails at once with the reason when no GPU or CUDA build is present)",
+        choices=("auto", "cpu", "cuda"), flag="--device", commands=GRADE + DRAPE,
+        choice_labels=("Auto", "CPU", "CUDA"), choice_help=("The GPU for large garments when one is present, otherwise the CPU", "Run on the processor",
+                     "Simulate, solve the adjoint and evaluate the costs on the NVIDIA GPU (stops with the "
+                     "reason if none can be used)"),
+        addon=Addon("device", "Device"))
+    # Inexact Newton's forcing rule: MINRES to max(1e-8, adjoint_forcing * residual) at
+    # inexact states, 1e-8 at settled ones (docs/gpu.md).
+    adjoint_forcing: float = setting(
+        0.01, "on the GPU, solve the adjoint at inexact states only to this times the state's residual (0: to "
+        "1e-8 everywhere, as the CPU's direct solve, 4x slower at 60K triangles)", low=0, high=1,
+        high_open=True, flag="--adjoint-forcing", metavar="F", commands=GRADE)
     # On the GPU, keep theta and x in GPU memory between exact checkpoints (False: the
     # loop on host arrays, each GPU piece copying in and out; for measuring what it saves).
     device_state: bool = True
@@ -121,28 +145,12 @@ class GradeSettings:
         return self.evaluate_base_pattern or self.method != "adjoint"
 
     def validate(self) -> None:
-        if self.device not in ("auto", "cpu", "cuda"):
-            raise SolveError(f"unknown device {self.device!r}; choose auto, cpu or cuda")
-        if not (0 <= self.adjoint_forcing < 1):
-            raise SolveError(f"adjoint_forcing must lie in [0, 1), got {self.adjoint_forcing}")
-        if self.start not in STARTS:
-            raise SolveError(f"unknown start {self.start!r}; choose one of {', '.join(STARTS)}")
-        if self.method not in METHODS:
-            raise SolveError(f"unknown grading method {self.method!r}; choose one of {', '.join(METHODS)}")
-        if not (self.stop_move_mm >= 0):
-            raise SolveError(f"stop_move_mm must be >= 0, got {self.stop_move_mm}")
-        if not (self.coarse_edge_length_cm >= 0 and self.fine_outer_iterations >= 0):
-            raise SolveError("coarse_edge_length_cm and fine_outer_iterations must be >= 0 (0: off / none)")
-        if self.inner_iterations < 1 or self.checkpoint_every < 1 or self.max_outer_iterations < 0:
-            raise SolveError("inner_iterations and checkpoint_every must be >= 1, max_outer_iterations >= 0")
-        if not (self.step > 0 and self.edge_length_cm > 0 and self.sdf_spacing > 0):
-            raise SolveError("step, edge_length_cm and sdf_spacing must be > 0")
+        """SolveError naming the setting outside its choices or range (seamfit.settings)."""
+        try:
+            check_fields(self, "grade")
+        except ValueError as exc:
+            raise SolveError(str(exc)) from None
         check_sdf_region(self.sdf_region)
-        if not (self.sdf_region_margin >= 0):
-            raise SolveError(f"sdf_region_margin must be >= 0 metres, got {self.sdf_region_margin}")
-        if not (0 < self.fixed_point_relaxation <= 1 and self.fixed_point_tolerance_mm > 0):
-            raise SolveError("fixed_point_relaxation must be in (0, 1] and fixed_point_tolerance_mm > 0")
-
 
 def algorithm1(ctx) -> SearchOutcome:
     """The paper's method: initialization (Section 7), then adjoint descent on f."""

@@ -4,7 +4,7 @@ objective at start and end, and the report."""
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from typing import Optional
 
 import numpy as np
@@ -13,6 +13,7 @@ from ..mesh import outline_from_uv
 from ..pattern import Pattern
 from ..pattern.checks import output_checks
 from ..pattern.markings import carry_markings
+from ..settings import echo
 from ..pattern.darts import true_darts
 from ..pattern.refit import refit_pattern
 from ..pattern.symmetry import find_symmetries, symmetrize, symmetry_report
@@ -163,7 +164,7 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
         "initialization": out.initialization or {"objective_history": [], "message": "not used by this method"},
         "mesh": {"vertices": int(len(mesh.uv_cm)), "triangles": int(len(mesh.triangles)),
                  "edge_length_cm": settings.edge_length_cm},
-        "settings": {k_: v for k_, v in asdict(replace(settings, strengths=None)).items()},
+        "settings": echo(settings, "grade"),    # the user's settings (seamfit.settings); strengths above
         **out.details,
     }
     return GradeResult(pattern=refit.pattern, uv_cm=uv_new, x=out.x, xbar=ctx.xbar, xtilde=ctx.xtilde, mesh=mesh,

@@ -242,13 +242,10 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         # natural waist
         start = {"from": "level scaling", "sleeve_panels": info["sleeve_panels"], "seat_line": info["seat_line"],
                  "natural_waist": info["natural_waist"]}
-    # R^fix shapes the preconditioner; in f it would pull the pattern back to the base
-    # (docs/grading.md, "R^fix in the preconditioner only").
-    regs = Regularizers(param, strengths.fix, strengths.cur,
-                        objective_fix=None if settings.fix_in_objective else 0.0,
-                        anchor=theta_level)
+    # R^fix is in f (the paper) and shapes the preconditioner (docs/grading.md).
+    regs = Regularizers(param, strengths.fix, strengths.cur, anchor=theta_level)
     seam = SeamLength(param, mesh, strengths.seam)
-    if seam.active and settings.seam_in_preconditioner:
+    if seam.active:   # R^seam's Gauss-Newton Hessian at the base joins P (docs/optimizer.md)
         regs.add_to_preconditioner(seam.gauss_newton())
     if device == "cuda":
         # R^fix + R^cur, R^seam and P^-1 too; P^-1 stays on the CPU, with the reason in
@@ -259,7 +256,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
     if device == "cuda":
         costs.use_device("cuda")
     sim = Simulator(mesh, target_sdf, fabric, sim_settings)
-    exact_tolerance = settings.exact_tolerance or sim_settings.tolerance
+    exact_tolerance = sim_settings.tolerance
     # An unconverged GPU adjoint solve at a state within 10x the exact tolerance falls
     # back to the CPU; further out it keeps MINRES's iterate (seamfit.opt.adjoint).
     adjoint = AdjointSolver(sim, device=device, equilibrium_tolerance=10 * exact_tolerance,

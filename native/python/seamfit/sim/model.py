@@ -15,6 +15,7 @@ import numpy as np
 
 from .._native import core
 from ..errors import DeviceError, SolveError
+from ..settings import DRAPE, Addon, check_fields, setting
 
 # Spring stiffness of a regular triangle lattice with edge a and springs
 # Y/a: its plane-stress 2D Young's modulus is 2 Y / (sqrt(3) a), so a fabric of
@@ -37,18 +38,27 @@ class Fabric:
         0.5-3e-5 N m; 1e-5 is the lighter end of medium weight.
     density: areal density (kg/m^2); 200 g/m^2 is a medium woven cotton.
     """
-    stretch_stiffness: float = 1000.0
-    sewing_stiffness: float = 8660.0
-    bending_stiffness: float = 1.0e-5
-    density: float = 0.2
+    stretch_stiffness: float = setting(
+        1000.0, "in-plane tensile stiffness of the fabric (a medium woven cotton)", unit="N/m", low=0,
+        low_open=True, flag="--stretch-stiffness", metavar="N/M", commands=DRAPE,
+        addon=Addon("fabric_stretch", "Stretch stiffness (N/m)", minimum=1.0, soft_max=1e5))
+    sewing_stiffness: float = setting(
+        8660.0, "stiffness of one sewing spring", unit="N/m", low=0, flag="--sewing-stiffness",
+        metavar="N/M", commands=DRAPE, addon=Addon("fabric_sewing", "Seam stiffness (N/m)", soft_max=1e6))
+    bending_stiffness: float = setting(
+        1.0e-5, "flexural rigidity of the fabric", unit="N m", low=0, flag="--bending-stiffness", metavar="NM",
+        commands=DRAPE, addon=Addon("fabric_bending", "Bending stiffness (N·m)", soft_max=1e-3, precision=7))
+    density: float = setting(
+        0.2, "weight per area of the fabric", unit="kg/m^2", low=0, low_open=True, flag="--density",
+        metavar="KG/M2", commands=DRAPE,
+        addon=Addon("fabric_density", "Density (kg/m²)", minimum=0.001, soft_max=2.0, precision=3))
 
     def validate(self) -> None:
-        for name in ("stretch_stiffness", "sewing_stiffness", "bending_stiffness", "density"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise SolveError(f"fabric {name} must be a finite number >= 0, got {v!r}")
-        if self.stretch_stiffness <= 0:
-            raise SolveError("fabric stretch_stiffness must be > 0")
+        """SolveError naming the fabric setting outside its range (seamfit.settings)."""
+        try:
+            check_fields(self, "fabric")
+        except ValueError as exc:
+            raise SolveError(f"fabric {exc}") from None
 
 
 @dataclass
@@ -63,12 +73,22 @@ class SimSettings:
         mu * barrier_length * g * m_i, so a vertex resting on the body under its
         own weight settles at phi = mu * barrier_length (1 mm by default).
     """
-    method: str = "chebyshev"          # "chebyshev" | "newton"
-    tolerance: float = 1e-3
-    max_iterations: int = 40000        # Chebyshev iterations per stage
+    method: str = setting("chebyshev", "drape solver", choices=("chebyshev", "newton"), flag="--method",
+                          commands=DRAPE)
+    tolerance: float = setting(
+        1e-3, "relative residual |f| / |m g| a drape stops at", low=0, low_open=True, flag="--tolerance",
+        metavar="R", commands=DRAPE)
+    max_iterations: int = setting(   # Chebyshev iterations per stage (drape's --max-iterations: per method)
+        40000, "most simulation iterations of a drape's stage", low=0,
+        addon=Addon("sim_iterations", "Drape iterations", minimum=1, soft_max=100000))
     newton_max_iterations: int = 600   # Newton iterations per stage
-    max_seconds: float = 0.0           # per stage, 0 = unlimited
-    mu: float = 0.01
+    max_seconds: float = setting(
+        0.0, "time budget per drape stage (0: no limit)", unit="s", low=0, flag="--max-seconds", metavar="S",
+        commands=DRAPE)
+    mu: float = setting(
+        0.01, "strength of the log barrier that keeps cloth outside the body (0.01: a 1 mm gap under the "
+        "cloth's own weight)", low=0, high=1, flag="--mu", commands=DRAPE,
+        addon=Addon("mu", "Barrier μ", minimum=1e-6, soft_max=1.0, precision=4))
     barrier_length: float = 0.1
     barrier_distance: float = 0.01     # no barrier beyond 1 cm from the body
     barrier_interpolation: str = "cubic"  # "cubic" (C2 B-spline) or "trilinear" SDF reading
@@ -96,12 +116,10 @@ class SimSettings:
     polish_smoothing: int = 5
 
     def validate(self) -> None:
-        if self.method not in ("chebyshev", "newton"):
-            raise SolveError(f"unknown solver method {self.method!r} (chebyshev or newton)")
-        if not (self.tolerance > 0):
-            raise SolveError("tolerance must be > 0")
-        if not (0 <= self.mu <= 1):
-            raise SolveError(f"mu must lie in [0, 1], got {self.mu}")
+        try:
+            check_fields(self, "sim")      # method, tolerance, mu, budgets (seamfit.settings)
+        except ValueError as exc:
+            raise SolveError(str(exc)) from None
         if self.barrier_interpolation not in ("cubic", "trilinear"):
             raise SolveError(f"unknown barrier_interpolation {self.barrier_interpolation!r} (cubic or trilinear)")
         if not (self.barrier_distance > 0):

@@ -9,6 +9,7 @@ namespace py = pybind11;
 
 namespace seamfit::bindings {
 
+// Binds the backend queries: CUDA build flag, CUDA devices, OpenMP threads.
 void bind_device(py::module_& m) {
 #ifdef SEAMFIT_WITH_CUDA
   m.attr("built_with_cuda") = true;
@@ -19,7 +20,8 @@ void bind_device(py::module_& m) {
 #else
   m.attr("built_with_cuda") = false;
   m.def("cuda_device_count", []() { return 0; }, "This build has no CUDA backend: always 0.");
-  m.def("cuda_device_name", [](int) { return std::string(); }, py::arg("index") = 0);
+  m.def("cuda_device_name", [](int) { return std::string(); }, py::arg("index") = 0,
+        "This build has no CUDA backend: always an empty string.");
 #endif
   m.def("omp_max_threads", []() { return omp_get_max_threads(); }, "OpenMP threads used by the CPU backend.");
 }

@@ -10,6 +10,7 @@ namespace py = pybind11;
 
 namespace seamfit::bindings {
 
+// Binds DeviceArray (CUDA builds only).
 void bind_device_array(py::module_& m) {
 #ifdef SEAMFIT_WITH_CUDA
   using seamfit::cuda::DeviceArray;
@@ -27,8 +28,9 @@ void bind_device_array(py::module_& m) {
            }),
            py::arg("array"), "A copy of a 2-D array on the GPU.")
       .def_static("zeros", [](int rows, int cols) { return new DeviceArray(rows, cols); }, py::arg("rows"),
-                  py::arg("cols"))
-      .def_property_readonly("shape", [](const DeviceArray& d) { return py::make_tuple(d.rows(), d.cols()); })
+                  py::arg("cols"), "A (rows, cols) array of zeros on the GPU.")
+      .def_property_readonly(
+          "shape", [](const DeviceArray& d) { return py::make_tuple(d.rows(), d.cols()); }, "(rows, cols)")
       .def("numpy",
            [](const DeviceArray& d) {
              py::array_t<double> out({py::ssize_t(d.rows()), py::ssize_t(d.cols())});
@@ -46,7 +48,7 @@ void bind_device_array(py::module_& m) {
              d.upload(a.data());
            },
            py::arg("array"), "Overwrite with a host array of the same shape.")
-      .def("copy_from", &DeviceArray::copy_from, py::arg("other"))
+      .def("copy_from", &DeviceArray::copy_from, py::arg("other"), "Overwrite with a DeviceArray of the same shape.")
       .def("axpy", &DeviceArray::axpy, py::arg("a"), py::arg("x"), "self += a * x")
       .def("max_abs", &DeviceArray::max_abs, "max |entry| (NaN if any entry is).");
 #else

@@ -725,52 +725,13 @@ def grade_output(inp: RunInputs, res) -> GradeOutput:
 def write_grade_files(out, g: GradeOutput, picture: bool = True, inputs: dict | None = None,
                       extra: dict | None = None) -> list:
     """The files `seamfit grade` writes (pattern.json, pattern.svg, garment.obj, report.json,
-    then pattern.png and drape.png), from a grading run of the add-on, with the same seamfit
-    writers. As in `seamfit grade`, the pictures come last and a picture that cannot be drawn
-    (Blender ships no matplotlib) is a ``pictures`` entry in the report, never a lost result."""
-    import copy
-    import json as _json
-    from pathlib import Path
-    from seamfit.commands.grade import PICTURES
-    from seamfit.fileio import atomic_write_text, json_default
-    from seamfit.mesh import write_obj
-    from seamfit.pattern import save_pattern, write_svg
-    from seamfit.pictures import draw_pictures, skipped
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    res = g.result
+    then pattern.png and drape.png), from a grading run of the add-on, by seamfit's one writer
+    (seamfit.grade_files): a picture that cannot be drawn (Blender ships no matplotlib) is a
+    ``pictures`` entry in the report, never a lost result."""
+    files = seamfit_module("grade_files")
     base = pattern_from_json(g.base_pattern_json, source="base pattern")
     graded = pattern_from_json(g.pattern_json, source="graded pattern")
-    labels = [f"base ({g.base_name})", f"graded ({g.target_name})"]
-    save_pattern(graded, out / "pattern.json", overwrite=True)
-    write_svg(out / "pattern.svg", [base, graded], labels=labels)
-    mesh = copy.copy(res.mesh)
-    mesh.uv_cm = res.uv_cm
-    write_obj(out / "garment.obj", mesh, positions=res.x)
-    report = dict(g.report)
-    if inputs is not None:
-        report["inputs"] = dict(inputs)
-    report.update(extra or {})
-
-    def write_report():
-        atomic_write_text(out / "report.json", _json.dumps(report, indent=1, default=json_default) + "\n")
-
-    write_report()
-
-    def nest(path):
-        from seamfit.pattern.nest_png import render_nest_png
-        render_nest_png(path, [base, graded], labels=labels, title=f"{base.garment_id or 'pattern'}: graded nest")
-
-    def drape(path):
-        from seamfit.sim.render import render_drape
-        tb = g.target_body
-        render_drape(path, res.x, res.mesh.triangles, res.mesh.triangle_panel,
-                     body_vertices=None if tb is None else tb.vertices,
-                     body_faces=None if tb is None else tb.faces,
-                     title=f"{base.garment_id or 'pattern'} graded to {g.target_name}")
-
-    report["pictures"] = (draw_pictures(out, dict(zip(PICTURES, (nest, drape))), command="grade") if picture
-                          else skipped(PICTURES))
-    write_report()
-    return [out / name for name in ("pattern.json", "pattern.svg", "garment.obj", "report.json")] + [
-        out / name for name, s in report["pictures"].items() if s.get("written")]
+    report = {**g.report, **({"inputs": dict(inputs)} if inputs is not None else {}), **(extra or {})}
+    report = files.write_grade_files(out, g.result, base, report, graded=graded, base_name=g.base_name,
+                                     target_name=g.target_name, target_body=g.target_body, pictures=picture)
+    return files.written_files(out, report)

@@ -34,6 +34,8 @@ _API = {
     # grading
     "GradeSettings": "seamfit.opt.grade", "GradeResult": "seamfit.opt.grade", "grade": "seamfit.opt.grade",
     "run_sizes": "seamfit.opt.size_run",
+    # the files of a grading, as every front end writes them
+    "write_grade_files": "seamfit.grade_files",
     # comparing with a drafted pattern
     "landmark_errors": "seamfit.pattern", "baseline_errors": "seamfit.pattern",
 }

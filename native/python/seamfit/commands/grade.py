@@ -17,14 +17,12 @@ say which; --fail-unconverged makes a stop at the budget exit 1), 2 on an error.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
+from ..grade_files import PICTURES
 from ..output_set import OutputSet, add_force_argument
-from ..pictures import draw_pictures, skipped, written
-
-PICTURES = ("pattern.png", "drape.png")
+from ..pictures import written
 
 EPILOG = """\
 Presets (strengths fix, cur, dis, smo, str, pos from the paper's Table 1; seam, the
@@ -219,9 +217,7 @@ def write_graded(args, result, progress, base_pattern, base_body, target_body, t
                  registration=None, *, extra_report: dict | None = None) -> dict:
     """What ``seamfit grade`` writes for one graded result, into the folder ``tmp``; the
     report (``extra_report`` added to it: a size run's entries)."""
-    from ..fileio import atomic_write_text, json_default
-    from ..mesh import write_obj
-    from ..pattern import save_pattern, write_svg
+    from ..grade_files import write_grade_files
 
     if progress is not None:
         progress.enter("writing")
@@ -241,18 +237,9 @@ def write_graded(args, result, progress, base_pattern, base_body, target_body, t
                                                                      truth_pattern)}
 
     result.pattern.body_id = target_body.name
-    save_pattern(result.pattern, tmp / "pattern.json")
-    write_svg(tmp / "pattern.svg", [base_pattern, result.pattern],
-              labels=[f"base ({base_body.name})", f"graded ({target_body.name})"])
-    write_obj(tmp / "garment.obj", _with_uv(result.mesh, result.uv_cm), positions=result.x)
-    # Results first, the pictures last: a picture that cannot be drawn costs only itself.
-    atomic_write_text(tmp / "report.json", json.dumps(report, indent=1, default=json_default) + "\n")
-    if args.no_picture:
-        report["pictures"] = skipped(PICTURES)
-    else:
-        report["pictures"] = draw_pictures(tmp, _drawers(args, base_pattern, result, base_body, target_body),
-                                           command="grade")
-    atomic_write_text(tmp / "report.json", json.dumps(report, indent=1, default=json_default) + "\n")
+    report = write_grade_files(tmp, result, base_pattern, report, base_name=base_body.name,
+                               target_name=target_body.name, target_body=target_body,
+                               title=base_pattern.garment_id or args.pattern.stem, pictures=not args.no_picture)
     if progress is not None:
         progress.close()
     if (report.get("sdf") or {}).get("warning"):  # even with -q: collisions may have been missed
@@ -316,25 +303,6 @@ def _scaled_errors(base_pattern, base_body, target_body, truth_pattern) -> dict:
         return {"max_cm": None, "error": str(exc)}
 
 
-def _drawers(args, base_pattern, result, base_body, target_body) -> dict:
-    """The pictures, by file name; matplotlib is imported only when they are drawn."""
-    name = base_pattern.garment_id or args.pattern.stem
-
-    def nest(path):
-        from ..pattern.nest_png import render_nest_png
-        render_nest_png(path, [base_pattern, result.pattern],
-                        labels=[f"base ({base_body.name})", f"graded ({target_body.name})"],
-                        title=f"{name}: graded nest")
-
-    def drape(path):
-        from ..sim.render import render_drape
-        render_drape(path, result.x, result.mesh.triangles, result.mesh.triangle_panel,
-                     body_vertices=target_body.vertices, body_faces=target_body.faces,
-                     title=f"{name} graded to {target_body.name}")
-
-    return dict(zip(PICTURES, (nest, drape)))
-
-
 def _print_time_split(r: dict) -> None:
     """Where the outer loop's time went, on which device (Algorithm 1's report only)."""
     sp = r.get("seconds_loop_split")
@@ -348,13 +316,3 @@ def _print_time_split(r: dict) -> None:
             extra += f": {adj.get('truncated', 0)} kept at the budget, {adj.get('gpu_fallbacks', 0)} redone on the CPU"
     print(f"device {r['device']}: simulation {sp['simulation']:.1f} s, gradient {sp['gradient']:.1f} s "
           f"(adjoint {sp.get('factorizations', 0.0) + sp.get('adjoint_solves', 0.0):.1f} s{extra})", file=sys.stderr)
-
-
-def _with_uv(mesh, uv_cm):
-    """The sewn mesh with its pattern coordinates replaced by the adjusted ones."""
-    import copy
-    m = copy.copy(mesh)
-    m.uv_cm = uv_cm
-    return m
-
-

@@ -7,7 +7,8 @@ graded to size 10, the unchanged pattern settled on the target body) per mesh si
     # MINRES iterations alone at one size (plain garment state, random g), for timing
     # per iteration and for a profiler (ncu --clock-control none ... ncu-target):
     PYTHONPATH=native/python python tests/benchmarks/bench_adjoint_gpu.py ncu-target --edge 0.45
-    # docs/adjoint_gpu_results.md from one or more results.json:
+    # docs/adjoint_gpu_results.md (and docs/results/data/adjoint_gpu_results.json) from one or
+    # more results.json:
     PYTHONPATH=native/python python tests/benchmarks/bench_adjoint_gpu.py report OUT/results.json
 
 The gradient error is |g_gpu - g_cpu| / |g_cpu| of the pattern gradient
@@ -231,7 +232,9 @@ def cmd_report(args) -> int:
                          f"{k['dram_read_mb']:.2f} | {k['dram_pct']:.0f} % | {k['l2_mb']:.1f} | {k['l2_pct']:.0f} % | "
                          f"{k['warps_pct']:.0f} % |")
     atomic_write_text(args.docs / "adjoint_gpu_results.md", "\n".join(lines) + "\n")
-    atomic_write_text(args.docs / "adjoint_gpu_results.json",
+    data = args.docs / "results" / "data"  # the raw numbers beside the other benchmarks' data
+    data.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(data / "adjoint_gpu_results.json",
                       json.dumps({"metas": metas, "rows": rows, "sizes": sizes, "kernels": kernels}, indent=1))
     print("\n".join(lines))
     return 0

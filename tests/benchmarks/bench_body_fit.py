@@ -7,7 +7,7 @@
    picture (front and side), with its requested and achieved measurements.
 
     PYTHONPATH=native/python python tests/benchmarks/bench_body_fit.py \
-        [--json docs/body_fit_results.json] [--picture docs/img/body_size_run.png]
+        [--json docs/results/data/body_fit_results.json] [--picture docs/img/body_size_run.png]
 """
 from __future__ import annotations
 

@@ -3,7 +3,7 @@ pattern, on every shared garment x body case: landmark error against the draftin
 system's own pattern for the target body. No optimization: this scores the start.
 
     python tests/benchmarks/bench_level_scale.py --data ../shared/data [--garments a,b] [--bodies x,y]
-        [--edge-length 3] [--out docs/level_scale_results.json]
+        [--edge-length 3] [--out docs/results/data/level_scale_results.json]
 """
 from __future__ import annotations
 

@@ -4,11 +4,12 @@ descent and Newton, on a few garments at two mesh resolutions, plus (with
 
     PYTHONPATH=native/python python tests/benchmarks/bench_sim.py [--quick] [--sweep DATA_DIR]
 
-Writes docs/img/sim_convergence.png and docs/simulator_results.md (and prints
-the tables). Each case is meshed, dressed and sewn once (gravity off,
-Chebyshev); both solvers then settle the same sewn state under gravity, so the
-curves compare the solvers, not the dressing. Timings depend on the machine
-and its load; the report says which machine and how many threads.
+Writes docs/img/sim_convergence.png, docs/simulator_results.md and
+docs/results/data/simulator_results.json (and prints the tables). Each case is
+meshed, dressed and sewn once (gravity off, Chebyshev); both solvers then settle
+the same sewn state under gravity, so the curves compare the solvers, not the
+dressing. Timings depend on the machine and its load; the report says which
+machine and how many threads.
 """
 from __future__ import annotations
 
@@ -189,7 +190,8 @@ def main() -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "docs")
     args = ap.parse_args()
     machine = f"{platform.processor() or platform.machine()}, {os.cpu_count()} logical CPUs"
-    previous = args.out / "simulator_results.json"
+    data = args.out / "results" / "data"  # the raw numbers beside the other benchmarks' data
+    previous = data / "simulator_results.json"
     if args.no_convergence:
         # keep the convergence rows of the last run (their plot stays as it is)
         conv = json.loads(previous.read_text()).get("convergence", []) if previous.exists() else []
@@ -206,7 +208,8 @@ def main() -> int:
         # one picture per garment, on the base body
         base = [item for item in pictures if item[0].endswith("/ size06")] or pictures
         render_front_grid(args.out / "img" / "drapes.png", base)
-    (args.out / "simulator_results.json").write_text(json.dumps(
+    data.mkdir(parents=True, exist_ok=True)
+    (data / "simulator_results.json").write_text(json.dumps(
         {"machine": machine, "convergence": [{k: v for k, v in r.items() if not k.startswith("history")} for r in conv],
          "sweep": sw}, indent=1))
     write_md(args.out / "simulator_results.md", conv, sw, machine)

@@ -230,7 +230,10 @@ def _strength_edited(self, context):
             self.strength_preset = "CUSTOM"
 
 
-def _strength(name, desc, default):
+def _strength(key: str, default: float):
+    """The scene property of one term's strength (its label and help from seamfit.opt.costs)."""
+    from seamfit.opt.costs import STRENGTH_HELP
+    name, desc = STRENGTH_HELP[key]
     return FloatProperty(name=name, description=desc + " (1/m²)", default=default, min=0.0,
                          soft_max=1e7, precision=4, update=_strength_edited)
 
@@ -282,13 +285,6 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
         name="Method", items=methods.items(), default=methods.DEFAULT,
         description="How the adjusted pattern is searched for (seamfit grade --method). The "
                     "baselines are there for comparison; every result is scored with the same objective")
-    strength_fix: _strength("Fix", "Keeps boundary vertices near the base pattern", _default[0])
-    strength_cur: _strength("Curvature", "Keeps the shape of boundary curves", _default[1])
-    strength_dis: _strength("Distance", "Keeps the looseness of the garment per vertex", _default[2])
-    strength_smo: _strength("Smoothness", "Keeps folds and smoothness of the surface", _default[3])
-    strength_str: _strength("Stretching", "Keeps the stretch ratio of every edge", _default[4])
-    strength_pos: _strength("Positional", "Keeps every garment point where it sits on the body", _default[5])
-    strength_seam: _strength("Seam length", "Keeps the two sides of every seam equally long", _default[6])
 
     fabric_stretch: _setting("fabric.stretch_stiffness")
     fabric_sewing: _setting("fabric.sewing_stiffness")
@@ -327,6 +323,10 @@ class SEAMFIT_PG_settings(bpy.types.PropertyGroup):
                                  items=[(k, *v) for k, v in scene_io.COMPARE_LAYOUTS.items()],
                                  description="How Compare lays the base and graded panels out")
 
+
+# One strength property per term of f, in seamfit's order: a new term needs no line here.
+SEAMFIT_PG_settings.__annotations__.update(
+    {f"strength_{k}": _strength(k, v) for k, v in zip(presets.STRENGTH_KEYS, _default)})
 
 CLASSES = (SEAMFIT_PG_panel_info, SEAMFIT_PG_stitch_info, SEAMFIT_PG_proposed_stitch, SEAMFIT_PG_fit,
            SEAMFIT_PG_message, SEAMFIT_PG_pattern_info, SEAMFIT_PG_body_report, SEAMFIT_PG_chart_size,

@@ -49,6 +49,17 @@ class Strengths:
 # The strengths' names in the paper's order, for the command line and the add-on.
 STRENGTH_NAMES = tuple(f.name for f in fields(Strengths))
 
+# What each term keeps, by strength name: (label, help), for the add-on's Costs panel.
+STRENGTH_HELP = {
+    "fix": ("Fix", "Keeps boundary vertices near the base pattern"),
+    "cur": ("Curvature", "Keeps the shape of boundary curves"),
+    "dis": ("Distance", "Keeps the looseness of the garment per vertex"),
+    "smo": ("Smoothness", "Keeps folds and smoothness of the surface"),
+    "str": ("Stretching", "Keeps the stretch ratio of every edge"),
+    "pos": ("Positional", "Keeps every garment point where it sits on the body"),
+    "seam": ("Seam length", "Keeps the two sides of every seam equally long"),
+}
+
 
 def positional_weights(mesh) -> np.ndarray:
     """Default u_i: POSITIONAL_WEIGHT_BOUNDARY on panel boundaries, 1 inside."""

@@ -2,9 +2,8 @@
 size 6 body to size 10, prepared, and its base pattern's exact drape on the target."""
 from __future__ import annotations
 
-from pathlib import Path
+from common import SAMPLES
 
-SAMPLES = Path(__file__).resolve().parents[1] / "sample_files"
 
 
 def settled_sample_grading(edge_length_cm: float, device: str, strengths=None):

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Tests of the Blender extension, run inside a Python that has the bpy module.
 
-tests/test_addon_blender.py builds the extension zip and runs this folder once per bpy
+tests/addon/test_addon_blender.py builds the extension zip and runs this folder once per bpy
 version found (SEAMFIT_BPY_SUITE=1 marks that run; a plain `pytest tests` skips
 collecting it, since its own Python has no bpy). To run it by hand:
 

@@ -1,7 +1,7 @@
 // Preconditioned MINRES on the CPU with the GPU adjoint's scalar recurrence
 // (sim/minres.hpp), over an assembled sparse matrix and 3x3 preconditioner
 // blocks: the reference that checks the shared recurrence where no GPU is
-// present (tests/test_minres.py), and the same algorithm for a CPU caller.
+// present (tests/sim/test_minres.py), and the same algorithm for a CPU caller.
 #pragma once
 #include <vector>
 

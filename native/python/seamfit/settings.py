@@ -247,7 +247,7 @@ def reference() -> str:
              "Every setting seamfit takes, generated from its one declaration (`seamfit.settings`;",
              "the fields of `GradeSettings`, `SimSettings` and `Fabric`). The command line, the",
              "Blender add-on, the batch jobs and a report's `settings` all read them from there;",
-             "`tests/test_settings_agree.py` fails when this page is not regenerated",
+             "`tests/cli/test_settings_agree.py` fails when this page is not regenerated",
              "(`python -m seamfit.settings > docs/settings.md`).", ""]
     titles = {"grade": "Grading (`GradeSettings`)", "sim": "Simulation (`SimSettings`)",
               "fabric": "Fabric (`Fabric`)"}

@@ -18,7 +18,7 @@ TangentSolver); where a pivot vanishes there, by SciPy's sparse LU (SuperLU, COL
 which pivots. The LDL^T is about 3x faster (0.37 against 1.07 s with 16K unknowns). The PSD-projected Hessian (springs and hinges clamped to their
 positive part) is available but not the default: on a hanging panel with compressed
 springs it gave gradients off by up to 4x, against < 0.1 % for the exact one
-(tests/test_grade_gradient.py).
+(tests/opt/test_grade_gradient.py).
 
 On the GPU (device "cuda") the same shifted system is solved iteratively instead
 (seamfit._core.CudaAdjoint): preconditioned MINRES, which needs symmetry but not

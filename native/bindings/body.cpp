@@ -12,9 +12,9 @@
 #include "body/sdf_build.hpp"
 #include "body/sdf_grid.hpp"
 #ifdef SEAMFIT_WITH_CUDA
-#include "device_info.hpp"
-#include "sdf_gpu.hpp"
-#include "sim_gpu.hpp"
+#include "body/sdf_gpu.hpp"
+#include "device/device_info.hpp"
+#include "sim/sim_gpu.hpp"
 #endif
 
 namespace py = pybind11;

@@ -6,11 +6,11 @@
 
 #include <algorithm>
 
-#include "adjoint_gpu.hpp"
 #include "bindings.hpp"
 #include "cuda_args.hpp"
-#include "dfdp_gpu.hpp"
-#include "sim_gpu.hpp"
+#include "sim/adjoint_gpu.hpp"
+#include "sim/dfdp_gpu.hpp"
+#include "sim/sim_gpu.hpp"
 
 namespace py = pybind11;
 

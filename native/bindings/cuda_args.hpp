@@ -9,8 +9,8 @@
 #include <string>
 
 #include "py_device_array.hpp"
+#include "sim/sim_gpu.hpp"
 #include "sim/simulator.hpp"
-#include "sim_gpu.hpp"
 
 namespace seamfit::bindings::cuda_args {
 

@@ -10,9 +10,9 @@
 #include <string>
 
 #include "bindings.hpp"
-#include "costs_gpu.hpp"
+#include "opt/costs_gpu.hpp"
 #include "opt/parametrization.hpp"
-#include "pattern_gpu.hpp"
+#include "opt/pattern_gpu.hpp"
 #include "py_cost_set.hpp"
 #include "py_device_array.hpp"
 

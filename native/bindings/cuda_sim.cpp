@@ -11,11 +11,11 @@
 #include <atomic>
 #include <string>
 
-#include "adjoint_gpu.hpp"
 #include "cuda_args.hpp"
-#include "newton_gpu.hpp"
+#include "sim/adjoint_gpu.hpp"
+#include "sim/newton_gpu.hpp"
+#include "sim/sim_gpu.hpp"
 #include "sim/simulator.hpp"
-#include "sim_gpu.hpp"
 #include "sim_report.hpp"
 #endif
 

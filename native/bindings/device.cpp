@@ -2,7 +2,7 @@
 
 #include "bindings.hpp"
 #ifdef SEAMFIT_WITH_CUDA
-#include "device_info.hpp"
+#include "device/device_info.hpp"
 #endif
 
 namespace py = pybind11;

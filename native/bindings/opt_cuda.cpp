@@ -11,10 +11,10 @@
 
 #include "bindings.hpp"
 #include "opt/regularizer_set.hpp"
+#include "opt/regularizers_gpu.hpp"
 #include "opt/seam_length.hpp"
 #include "opt_args.hpp"
 #include "py_device_array.hpp"
-#include "regularizers_gpu.hpp"
 
 namespace py = pybind11;
 

@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "device_array.hpp"
+#include "device/device_array.hpp"
 
 namespace seamfit::bindings {
 

@@ -18,7 +18,7 @@
 // same bits for any thread count (no phase depends on thread timing).
 //
 // On a GPU (params.gpu), phases 1 and 2 are replaced by the exact nearest-triangle
-// distance of every node (a BVH query per node, native/cuda/sdf_gpu.cu); phase 3 is
+// distance of every node (a BVH query per node, native/core/body/sdf_gpu.cu); phase 3 is
 // the same. Those values are exact everywhere, so they can be below the CPU's
 // propagated ones (never above).
 #pragma once

@@ -46,7 +46,7 @@ class Parametrization {
   const Eigen::SparseMatrix<double>& laplacian() const { return L_; }
 
   // The interior update as dense blocks, one per panel (connected piece), for the
-  // GPU (cuda/pattern_gpu): panel k's interior moves by M_k (theta_k - theta_bar_k)
+  // GPU (opt/pattern_gpu): panel k's interior moves by M_k (theta_k - theta_bar_k)
   // with M_k = -(L^I_k)^-1 L^B_k. L^I is constant (the base pattern's), so this is
   // computed once; the blocks hold sum_k n^I_k n^B_k doubles (harmonic_doubles()).
   struct HarmonicBlock {

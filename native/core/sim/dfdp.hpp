@@ -1,6 +1,6 @@
 // The matrix-free product (df/dp)^T lam of the adjoint gradient (paper §7:
 // "we can avoid explicit evaluation of this matrix"), in the pieces the CPU
-// (Simulator::dfdp_T) and the GPU (cuda/dfdp_gpu.cu) both run: per spring
+// (Simulator::dfdp_T) and the GPU (sim/dfdp_gpu.cu) both run: per spring
 // (rest length), per hinge (bending), per vertex (mass weight of gravity and
 // the barrier), per triangle (area), and a per-vertex gather of the element
 // shares (no atomics, fixed order).

@@ -1,6 +1,6 @@
 // The scalar recurrences of preconditioned MINRES (Paige and Saunders 1975) for
-// the adjoint system H lam = g, host-device: the GPU adjoint (native/cuda/
-// adjoint_gpu.cu) runs them in a one-thread step between its vector kernels,
+// the adjoint system H lam = g, host-device: the GPU adjoint (sim/adjoint_gpu.cu)
+// runs them in a one-thread step between its vector kernels,
 // and they can be stepped on the host against a reference.
 //
 // Why MINRES: the exact tangent stiffness H is symmetric but may be indefinite

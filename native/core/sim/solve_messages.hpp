@@ -1,5 +1,5 @@
 // The solve reports' messages, one wording for the CPU solvers (sim/solvers.cpp)
-// and the GPU's (cuda/sim_gpu.cu): callers and tests read their verdicts from
+// and the GPU's (sim/sim_gpu.cu): callers and tests read their verdicts from
 // these words ("converged", "iteration budget", "time budget", "cancelled").
 #pragma once
 #include <cstdio>

@@ -1,5 +1,5 @@
 // Per-vertex sum of element gradient slots, in slot order: the cost sets' gather on
-// the CPU (opt/cost_set.cpp) and the GPU (cuda/costs_gpu.cu), no atomics.
+// the CPU (opt/cost_set.cpp) and the GPU (opt/costs_gpu.cu), no atomics.
 #pragma once
 #include "common/hd.hpp"
 

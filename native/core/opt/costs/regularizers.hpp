@@ -46,7 +46,7 @@ SF_HD double curve_regularizer(Vec2 pj, Vec2 pi, Vec2 pk, Vec2 z, double kw, Vec
 }
 
 // The per-element and per-entry steps of R^fix + R^cur over theta, shared by the CPU loop
-// (opt::Regularizers::evaluate) and the GPU kernels (cuda/regularizers_gpu.cu): each curve
+// (opt::Regularizers::evaluate) and the GPU kernels (opt/regularizers_gpu.cu): each curve
 // element writes its value and three gradient slots, then each theta entry gathers its
 // slots in slot order (no atomics, the sum order of a scatter in element order).
 

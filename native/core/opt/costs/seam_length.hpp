@@ -39,7 +39,7 @@ SF_HD double seam_segment(Vec2 pa0, Vec2 pa1, Vec2 pb0, Vec2 pb1, double rho, do
 }
 
 // Matched segment s4 = (a0, a1, b0, b1) as theta indices: the per-element step of the CPU
-// loop (opt::SeamLength::evaluate) and the GPU kernel (cuda/regularizers_gpu.cu). Value;
+// loop (opt::SeamLength::evaluate) and the GPU kernel (opt/regularizers_gpu.cu). Value;
 // gradient slots into slot[0..3], gathered per theta entry in slot order (opt/costs/gather.hpp).
 SF_HD double seam_element(const Vec2* theta, const int* s4, double rho, double k, Vec2* slot) {
   return seam_segment(theta[s4[0]], theta[s4[1]], theta[s4[2]], theta[s4[3]], rho, k, slot);

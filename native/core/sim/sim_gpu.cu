@@ -23,11 +23,11 @@
 #include <type_traits>
 #include <vector>
 
-#include "dev_buffer.cuh"
+#include "device/dev_buffer.cuh"
 #include "sim/rest_state.hpp"
+#include "sim/sim_gpu.hpp"
+#include "sim/sim_iteration.cuh"
 #include "sim/solve_messages.hpp"
-#include "sim_gpu.hpp"
-#include "sim_iteration.cuh"
 
 namespace seamfit::cuda {
 

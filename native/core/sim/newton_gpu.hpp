@@ -8,9 +8,9 @@
 #pragma once
 #include <atomic>
 
-#include "adjoint_gpu.hpp"
+#include "sim/adjoint_gpu.hpp"
+#include "sim/sim_gpu.hpp"
 #include "sim/simulator.hpp"
-#include "sim_gpu.hpp"
 
 namespace seamfit::cuda {
 

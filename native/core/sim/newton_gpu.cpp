@@ -1,4 +1,4 @@
-#include "newton_gpu.hpp"
+#include "sim/newton_gpu.hpp"
 
 #include <algorithm>
 #include <cmath>

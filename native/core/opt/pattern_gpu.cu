@@ -1,13 +1,13 @@
-#include "pattern_gpu.hpp"
+#include "opt/pattern_gpu.hpp"
 
 #include <cuda_runtime.h>
 
 #include <stdexcept>
 #include <vector>
 
-#include "dense_rows.cuh"
-#include "dev_buffer.cuh"
-#include "sim_gpu.hpp"
+#include "device/dense_rows.cuh"
+#include "device/dev_buffer.cuh"
+#include "sim/sim_gpu.hpp"
 
 namespace seamfit::cuda {
 

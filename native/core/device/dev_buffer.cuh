@@ -6,7 +6,7 @@
 #include <cstddef>
 #include <string>
 
-#include "sim_gpu.hpp"
+#include "sim/sim_gpu.hpp"
 
 namespace seamfit::cuda {
 

@@ -1,4 +1,4 @@
-#include "sdf_gpu.hpp"
+#include "body/sdf_gpu.hpp"
 
 #include <cuda_runtime.h>
 
@@ -8,8 +8,8 @@
 
 #include "body/tri_bvh.hpp"
 #include "body/tri_distance.hpp"
-#include "dev_buffer.cuh"
-#include "sim_gpu.hpp"
+#include "device/dev_buffer.cuh"
+#include "sim/sim_gpu.hpp"
 
 namespace seamfit::cuda {
 

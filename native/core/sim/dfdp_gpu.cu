@@ -1,15 +1,15 @@
-#include "dfdp_gpu.hpp"
+#include "sim/dfdp_gpu.hpp"
 
 #include <cuda_runtime.h>
 
 #include <vector>
 
-#include "dev_buffer.cuh"
+#include "device/dev_buffer.cuh"
 #include "sim/dfdp.hpp"
+#include "sim/sim_iteration.cuh"
 #include "sim/simulator.hpp"
 #include "sim/terms/bending.hpp"
 #include "sim/terms/spring.hpp"
-#include "sim_iteration.cuh"
 
 namespace seamfit::cuda {
 

@@ -20,11 +20,11 @@
 #include <type_traits>
 #include <vector>
 
-#include "adjoint_gpu.hpp"
-#include "dev_buffer.cuh"
+#include "sim/adjoint_gpu.hpp"
+#include "device/dev_buffer.cuh"
 #include "sim/solve_messages.hpp"
 #include "sim/minres.hpp"
-#include "sim_iteration.cuh"
+#include "sim/sim_iteration.cuh"
 
 namespace seamfit::cuda {
 

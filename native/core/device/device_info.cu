@@ -1,6 +1,6 @@
 #include <cuda_runtime.h>
 
-#include "device_info.hpp"
+#include "device/device_info.hpp"
 
 namespace seamfit::cuda {
 

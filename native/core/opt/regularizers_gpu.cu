@@ -1,4 +1,4 @@
-#include "regularizers_gpu.hpp"
+#include "opt/regularizers_gpu.hpp"
 
 #include <cuda_runtime.h>
 
@@ -7,12 +7,12 @@
 #include <string>
 #include <vector>
 
-#include "dense_rows.cuh"
-#include "dev_buffer.cuh"
+#include "device/dense_rows.cuh"
+#include "device/dev_buffer.cuh"
 #include "opt/costs/gather.hpp"
 #include "opt/costs/regularizers.hpp"
 #include "opt/costs/seam_length.hpp"
-#include "sim_gpu.hpp"
+#include "sim/sim_gpu.hpp"
 
 namespace seamfit::cuda {
 

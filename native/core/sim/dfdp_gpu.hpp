@@ -5,7 +5,7 @@
 #pragma once
 #include <memory>
 
-#include "sim_gpu.hpp"
+#include "sim/sim_gpu.hpp"
 
 namespace seamfit::cuda {
 

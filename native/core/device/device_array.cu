@@ -1,9 +1,9 @@
-#include "device_array.hpp"
+#include "device/device_array.hpp"
 
 #include <cmath>
 #include <string>
 
-#include "dev_buffer.cuh"
+#include "device/dev_buffer.cuh"
 
 namespace seamfit::cuda {
 namespace {

@@ -14,7 +14,7 @@
 #include <memory>
 #include <string>
 
-#include "sim_gpu.hpp"
+#include "sim/sim_gpu.hpp"
 
 namespace seamfit::cuda {
 

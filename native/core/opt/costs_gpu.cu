@@ -1,11 +1,11 @@
-#include "costs_gpu.hpp"
+#include "opt/costs_gpu.hpp"
 
 #include <cuda_runtime.h>
 
 #include <stdexcept>
 #include <vector>
 
-#include "dev_buffer.cuh"
+#include "device/dev_buffer.cuh"
 #include "opt/costs/distance.hpp"
 #include "opt/costs/gather.hpp"
 #include "opt/costs/positional.hpp"

@@ -176,9 +176,9 @@ def test_inverse_too_large_for_the_limit_stays_on_the_cpu(param, monkeypatch):
 
 
 def test_unknown_device_is_refused(mesh, param):
-    with pytest.raises(SolveError, match="unknown regularizers device"):
+    with pytest.raises(SolveError, match="unknown device .* for the regularizers"):
         Regularizers(param, 1.0, 1.0).use_device("tpu")
-    with pytest.raises(SolveError, match="unknown seam-length device"):
+    with pytest.raises(SolveError, match="unknown device .* for the seam-length term"):
         SeamLength(param, mesh, 1.0).use_device("tpu")
     assert Regularizers(param, 1.0, 1.0).use_device("cpu") == "cpu"
     assert SeamLength(param, mesh, 1.0).use_device("cpu") == "cpu"

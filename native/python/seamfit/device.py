@@ -15,6 +15,20 @@ def cuda_available() -> tuple[bool, str]:
     return True, ""
 
 
+def require_device(device: str, what: str, error: type = DeviceError, *, runnable: bool = True) -> str:
+    """``device``, a resolved device ("cpu" or "cuda") for ``what`` (the simulator, the
+    cost set, ...), checked the one way for the package: another name raises ``error``
+    naming ``what``; with ``runnable``, cuda raises DeviceError with the reason when it
+    cannot run here."""
+    if device not in ("cpu", "cuda"):
+        raise error(f"unknown device {device!r} for {what} (cpu or cuda)")
+    if device == "cuda" and runnable:
+        ok, why = cuda_available()
+        if not ok:
+            raise DeviceError(f"device cuda: {why}")
+    return device
+
+
 def check_device(requested: str) -> None:
     """Fails at once, with the reason, for an unknown device or a cuda that cannot run
     here; measures nothing (the choice for auto waits for the garment's size)."""

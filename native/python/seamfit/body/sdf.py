@@ -36,7 +36,8 @@ import numpy as np
 
 from .. import cache as disk_cache
 from .._native import core
-from ..errors import BodyError, DeviceError
+from ..device import require_device
+from ..errors import BodyError
 from ..fileio import atomic_write_bytes
 from .io import Body
 from .validate import check_body
@@ -177,16 +178,10 @@ def sdf_cache_key(body: Body, spacing: float, padding: float, bounds=None, devic
     h.update(b"|faces|")
     h.update(np.ascontiguousarray(body.faces, dtype=np.int32).tobytes())
     h.update(repr((float(spacing), float(padding), _norm_bounds(bounds))).encode())
-    tag = _BUILDER_TAG[_check_device(device)]
+    tag = _BUILDER_TAG[require_device(device, "the SDF build", runnable=False)]
     if tag is not None:
         h.update(tag)
     return h.hexdigest()[:40]
-
-
-def _check_device(device: str) -> str:
-    if device not in _BUILDER_TAG:
-        raise DeviceError(f"unknown device {device!r} for the SDF build (cpu or cuda)")
-    return device
 
 
 def _remember(key: str, sdf: SignedDistanceField) -> None:
@@ -263,11 +258,7 @@ def build_sdf(body: Body, spacing: float = DEFAULT_SPACING, padding: float = DEF
     of its own (seamfit.cache.write_entry_soon) instead of before returning. ``device``: "cpu" (band, propagation, sign) or
     "cuda" (exact nearest distances on the GPU, the sign on the CPU); DeviceError
     when cuda cannot run here."""
-    if _check_device(device) == "cuda":
-        from ..device import cuda_available
-        ok, why = cuda_available()
-        if not ok:
-            raise DeviceError(f"device cuda: {why}")
+    require_device(device, "the SDF build")
     if not (np.isfinite(spacing) and spacing > 0):
         raise BodyError(f"{body.where}: spacing must be a positive number of metres, got {spacing}")
     if not (np.isfinite(padding) and padding >= 0):

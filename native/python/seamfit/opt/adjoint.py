@@ -46,6 +46,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .._native import core
+from ..device import require_device
 from ..errors import SolveError
 from ..device_arrays import Buffers, all_finite, host, is_device
 
@@ -66,8 +67,7 @@ class AdjointSolver:
     def __init__(self, simulator, *, psd: bool = False, shift: float = DEFAULT_SHIFT, device: str = "cpu",
                  gpu_tolerance: float = GPU_TOLERANCE, gpu_max_iterations: int = GPU_MAX_ITERATIONS,
                  equilibrium_tolerance: float | None = None, inexact_forcing: float = 0.0):
-        if device not in ("cpu", "cuda"):
-            raise SolveError(f"unknown adjoint device {device!r} (cpu or cuda)")
+        require_device(device, "the adjoint", SolveError, runnable=False)   # cuda is checked where it is used
         self.sim = simulator
         self.psd = psd
         self.shift = shift

@@ -120,14 +120,11 @@ class CostSet:
     def use_device(self, device: str) -> None:
         """Evaluate on "cpu" or on "cuda": a GPU mirror of the terms' constant data
         (the same element functions; strengths are still read from this set)."""
-        if device == "cuda":
-            from ..sim.cuda import require_cuda
-            require_cuda()
+        from ..device import require_device
+        if require_device(device, "the cost set", SolveError) == "cuda":
             self._gpu = core().CudaCostSet(self._native)
-        elif device == "cpu":
-            self._gpu = None
         else:
-            raise SolveError(f"unknown cost device {device!r} (cpu or cuda)")
+            self._gpu = None
 
     @property
     def device(self) -> str:

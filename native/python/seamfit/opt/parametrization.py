@@ -43,14 +43,11 @@ class Parametrization:
         of the interior update in GPU memory). Returns the device used: a pattern
         whose blocks would not fit (GPU_MAX_BYTES, or half the free memory) stays
         on the CPU, with the reason in ``device_note``."""
+        from ..device import require_device
         from ..errors import DeviceError, SolveError
-        if device == "cpu":
+        if require_device(device, "the parametrization", SolveError) == "cpu":
             self._gpu = None
             return "cpu"
-        if device != "cuda":
-            raise SolveError(f"unknown parametrization device {device!r} (cpu or cuda)")
-        from ..sim.cuda import require_cuda
-        require_cuda()
         try:
             self._gpu = core().CudaPattern(self._native, self.GPU_MAX_BYTES)
         except DeviceError as exc:

@@ -67,20 +67,18 @@ class Regularizers:
         """Evaluate R^fix + R^cur and apply P^-1 on "cpu" or "cuda". Returns the device
         used: when P^-1 would not fit (GPU_MAX_BYTES, or half the free memory) everything
         stays on the CPU, with the reason in ``device_note``."""
+        from ..device import require_device
         from ..errors import DeviceError, SolveError
-        if device == "cpu":
+        if require_device(device, "the regularizers", SolveError, runnable=False) == "cpu":
             self._gpu, self.device_note = None, ""
             return "cpu"
-        if device != "cuda":
-            raise SolveError(f"unknown regularizers device {device!r} (cpu or cuda)")
         need = 8 * (2 * self.param.n_theta) ** 2
         if need > self.GPU_MAX_BYTES:   # known before asking for a device (the native side says the same)
             self._gpu = None
             self.device_note = (f"the preconditioner P^-1 needs {need >> 20} MiB of GPU memory "
                                 f"(limit {self.GPU_MAX_BYTES >> 20} MiB)")
             return "cpu"
-        from ..sim.cuda import require_cuda
-        require_cuda()
+        require_device("cuda", "the regularizers")
         try:
             self._gpu = core().CudaRegularizers(self._native, self._precond, self.GPU_MAX_BYTES)
         except DeviceError as exc:

@@ -51,14 +51,11 @@ class SeamLength:
 
     def use_device(self, device: str) -> str:
         """Evaluate R^seam on "cpu" or "cuda"; returns the device used."""
+        from ..device import require_device
         from ..errors import SolveError
-        if device == "cpu":
+        if require_device(device, "the seam-length term", SolveError) == "cpu":
             self._gpu = None
             return "cpu"
-        if device != "cuda":
-            raise SolveError(f"unknown seam-length device {device!r} (cpu or cuda)")
-        from ..sim.cuda import require_cuda
-        require_cuda()
         self._gpu = core().CudaSeamLength(self._native)
         return "cuda"
 

@@ -16,14 +16,11 @@ from typing import Callable, Optional
 import numpy as np
 
 from .._native import core
-from ..device import cuda_available  # one check for the package
-from ..errors import DeviceError
+from ..device import require_device
 
 
 def require_cuda() -> None:
-    ok, why = cuda_available()
-    if not ok:
-        raise DeviceError(f"device cuda: {why}")
+    require_device("cuda", "the GPU simulator")
 
 
 class CudaSimulator:

@@ -14,6 +14,7 @@ from typing import Any, Callable, Optional
 import numpy as np
 
 from .._native import core
+from ..device import require_device
 from ..errors import DeviceError, SolveError
 from ..settings import DRAPE, Addon, check_fields, setting
 
@@ -126,8 +127,7 @@ class SimSettings:
             raise SolveError("barrier_distance must be > 0")
         if self.max_iterations < 0 or self.newton_max_iterations < 0 or self.polish_iterations < 0:
             raise SolveError("max_iterations must be >= 0")
-        if self.device not in ("cpu", "cuda"):
-            raise SolveError(f"unknown device {self.device!r} (cpu or cuda)")
+        require_device(self.device, "the simulator", SolveError, runnable=False)
         if not (0 < self.rho_max < 1):
             raise SolveError(f"rho_max must lie in (0, 1), got {self.rho_max}")
 
@@ -352,8 +352,7 @@ class Simulator:
         dev = device or self.settings.device
         if dev == "cpu":
             return self._host_model().solve(x, st, progress)
-        if dev != "cuda":
-            raise DeviceError(f"unknown device {dev!r} (cpu or cuda)")
+        require_device(dev, "a solve", runnable=False)    # the GPU mirror checks cuda can run
         if st.method == 1:
             self._host_model()  # its line search runs on the CPU model
             return self.cuda().newton(x, settings=st, progress=progress)

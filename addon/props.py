@@ -6,7 +6,6 @@ from __future__ import annotations
 import sys
 
 import bpy
-import numpy as np
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
 
@@ -347,10 +346,7 @@ def unregister():
         bpy.utils.unregister_class(cls)
 
 
-def _exact(value: float) -> float:
-    """The decimal a user typed, from Blender's float32 property: 0.05 stays 0.05 (not
-    0.0500000007), so the add-on hands seamfit the same numbers as the command line."""
-    return float(str(np.float32(value)))
+_exact = seamfit_settings.typed_decimal
 
 
 def settings_dict(s: SEAMFIT_PG_settings) -> dict:

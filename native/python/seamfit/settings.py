@@ -222,10 +222,15 @@ def from_blender(key: str, value):
     if s.choices:
         return str(value).lower()
     if s.kind is float:
-        # the decimal the user typed, not Blender's float32 (0.05, not 0.0500000007)
-        import numpy as np
-        return float(str(np.float32(value))) / s.addon.scale
+        return typed_decimal(value) / s.addon.scale
     return s.kind(value)
+
+
+def typed_decimal(value: float) -> float:
+    """The decimal a user typed, from Blender's float32 property: 0.05 stays 0.05 (not
+    0.0500000007), so the add-on hands seamfit the same numbers as the command line."""
+    import numpy as np
+    return float(str(np.float32(value)))
 
 
 def to_blender(key: str, value):

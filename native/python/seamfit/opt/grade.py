@@ -36,7 +36,7 @@ from .initialize import initialize_pattern
 from .output import GradeResult, SearchOutcome, finish
 from .prepare import ProgressFn, base_drape, prepare
 from .presets import PRESETS, preset
-from .sdf_region import GARMENT_REGION_MARGIN, check_sdf_region, garment_outside_field
+from .sdf_region import GARMENT_REGION_MARGIN, SDF_REGIONS, garment_outside_field
 from .transfer import DEFAULT_BANDWIDTH
 
 METHODS = ("adjoint", "two-phase", "fixed-point")
@@ -83,7 +83,7 @@ class GradeSettings:
     sdf_region: str = setting(
         "auto", "where the body fields are built: body (the whole body), garment (cut to the garment's height "
         "band plus --sdf-margin: fine spacings for fine meshes) or auto (the whole body unless its grid would "
-        "exceed the SDF builder's node limit)", choices=("auto", "body", "garment"), flag="--sdf-region",
+        "exceed the SDF builder's node limit)", choices=SDF_REGIONS, flag="--sdf-region",
         commands=GRADE)
     sdf_region_margin: float = setting(
         GARMENT_REGION_MARGIN, "with a cropped field, how far above and below the garment it reaches", unit="m",
@@ -150,7 +150,6 @@ class GradeSettings:
             check_fields(self, "grade")
         except ValueError as exc:
             raise SolveError(str(exc)) from None
-        check_sdf_region(self.sdf_region)
 
 def algorithm1(ctx) -> SearchOutcome:
     """The paper's method: initialization (Section 7), then adjoint descent on f."""

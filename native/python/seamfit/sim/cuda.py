@@ -19,10 +19,6 @@ from .._native import core
 from ..device import require_device
 
 
-def require_cuda() -> None:
-    require_device("cuda", "the GPU simulator")
-
-
 class CudaSimulator:
     """GPU mirror of a simulator.
 
@@ -39,7 +35,7 @@ class CudaSimulator:
 
     def __init__(self, simulator, *, device: int = 0, batch: int = 32, block: int = 128, lanes: int = 0,
                  use_graph: bool = True, float_rest: bool = False):
-        require_cuda()
+        require_device("cuda", "the GPU simulator")
         self.simulator = simulator
         self._core_sim = simulator.core if hasattr(simulator, "core") else simulator
         self._gpu = core().CudaSimulator(self._core_sim, device=device, block=block, lanes=lanes, batch=batch,

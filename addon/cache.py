@@ -154,10 +154,10 @@ def clear_disk() -> int:
     many files were removed."""
     try:
         from seamfit import cache as disk
-        from seamfit.body import sdf
+        from seamfit.body import clear_memory_cache
     except ImportError:
         return 0
-    sdf.clear_memory_cache()
+    clear_memory_cache()
     removed = 0
     for path, _, _ in disk.cache_entries():
         try:

@@ -21,9 +21,12 @@ class AddonError(Exception):
 
 
 def seamfit_module(name: str = ""):
-    """Import ``seamfit`` or one of its public modules with a readable failure."""
+    """Import ``seamfit`` or one of its public modules (``seamfit.PUBLIC_MODULES``: the add-on
+    uses nothing below them) with a readable failure."""
     full = "seamfit" + (f".{name}" if name else "")
     try:
+        if name and name not in importlib.import_module("seamfit").PUBLIC_MODULES:
+            raise ValueError(f"{full} is not one of seamfit's public modules")
         return importlib.import_module(full)
     except ImportError as exc:
         raise AddonError(f"{full} is not available in the installed seamfit ({exc}); "
@@ -63,7 +66,7 @@ def check_pattern(pattern) -> list[str]:
 def edges_in_order(panel):
     """The panel's edges in outline order, or None when they do not run around the outline."""
     try:
-        return seamfit_module("pattern.edit").edges_in_order(panel, panel.name)
+        return seamfit_module("pattern").edges_in_order(panel, panel.name)
     except seamfit_module("errors").PatternError:
         return None
 
@@ -77,8 +80,8 @@ def edit_pattern(pattern, changes: dict):
     ctrl, arc), after the splits and joins listed under ``changes[panel][POINTS_KEY]``
     (dict(op="split", edge, at, new_id, point) or dict(op="join", edges, point), in order);
     outlines sampled again, stitches kept on their edges."""
-    from seamfit.pattern.model import Edge
-    points = seamfit_module("pattern.points")
+    points = seamfit_module("pattern")
+    Edge = points.Edge
     for name, per in changes.items():
         for op in per.get(POINTS_KEY, []):
             # The edits validate the whole pattern once they are all made.
@@ -91,15 +94,15 @@ def edit_pattern(pattern, changes: dict):
                             ctrl=[tuple(c) for c in d.get("ctrl", [])], arc=d.get("arc"))
                   for eid, d in per.items() if eid != POINTS_KEY}
            for name, per in changes.items() if per}
-    return seamfit_module("pattern.edit").edit_edges(pattern, new)
+    return points.edit_edges(pattern, new)
 
 
 def arc_through(p0, p1, samples):
-    return seamfit_module("pattern.edit").arc_through(p0, p1, samples)
+    return seamfit_module("pattern").arc_through(p0, p1, samples)
 
 
 def cubic_through(p0, p1, samples, t=None):
-    return seamfit_module("pattern.edit").cubic_through(p0, p1, samples, t)
+    return seamfit_module("pattern").cubic_through(p0, p1, samples, t)
 
 
 def check_edited(pattern, where: str) -> list[str]:
@@ -118,12 +121,12 @@ def check_edited(pattern, where: str) -> list[str]:
 
 
 def pattern_to_json(pattern) -> str:
-    sewpat = seamfit_module("pattern.sewpat")
+    sewpat = seamfit_module("pattern")
     return json.dumps(sewpat.pattern_to_dict(pattern), sort_keys=True)
 
 
 def pattern_from_json(text: str, source: str = "<blend>"):
-    sewpat = seamfit_module("pattern.sewpat")
+    sewpat = seamfit_module("pattern")
     return sewpat.pattern_from_dict(json.loads(text), source)
 
 
@@ -138,14 +141,14 @@ def save_svg(patterns: list, path: str, labels: list[str] | None = None) -> None
 
 
 def side_points_cm(pattern, side) -> np.ndarray:
-    from seamfit.pattern import range_indices
+    range_indices = seamfit_module("pattern").range_indices
     panel = pattern.panel(side.panel)
     return panel.outline_cm[range_indices(side.range, panel.n_vertices)]
 
 
 def stitch_lengths_cm(pattern, stitch) -> tuple[float, float]:
     """Lengths of both sides, as the file gives them or measured along the outline."""
-    from seamfit.pattern.model import polyline_length
+    polyline_length = seamfit_module("pattern").polyline_length
     la = stitch.length_a_cm
     lb = stitch.length_b_cm
     if la is None:
@@ -216,7 +219,7 @@ def body_measurements(body: BodyInput) -> dict:
 def body_report(body: BodyInput) -> dict:
     """Validation messages and key measurements (cm) of a body."""
     b = seamfit_module("body")
-    from seamfit.errors import BodyError
+    BodyError = seamfit_module("errors").BodyError
     try:
         sb = body_object(body)
         report = b.validate_body(sb)
@@ -245,7 +248,7 @@ def measurement_names() -> tuple:
 
 def unit_factor_cm(unit: str) -> float:
     """cm per unit of ``unit`` ("cm", "in"), as seamfit's measurement files convert them."""
-    return float(seamfit_module("body.measurement_sets").UNITS[unit])
+    return float(seamfit_module("body").MEASUREMENT_UNITS[unit])
 
 
 def load_size_chart(path: str) -> list[dict]:
@@ -268,10 +271,10 @@ def make_body(cm: dict, gender: str, name: str, job):
 def needs_registration(base: BodyInput | None, target: BodyInput) -> bool:
     """Whether ``target`` has another mesh than ``base`` (the sample bodies' mesh when no
     base is given): grading then registers the base mesh onto it."""
-    reg = seamfit_module("body.register")
+    bodies = seamfit_module("body")
     if base is not None:
-        return not reg.same_topology(body_object(base), body_object(target))
-    faces = seamfit_module("body.shape_model").hm08_faces()
+        return not bodies.same_topology(body_object(base), body_object(target))
+    faces = bodies.hm08_faces()
     return not (len(target.triangles) == len(faces) and np.array_equal(target.triangles, faces))
 
 
@@ -279,7 +282,7 @@ def quick_check(body: BodyInput, registering: bool) -> str:
     """seamfit's checks before any fitting (units, up axis with the fix, facing, holes,
     pose): the one-line reason a body is refused, or "". An open mesh is refused only when
     it must be registered (the distance field copes with holes)."""
-    reg = seamfit_module("body.register")
+    reg = seamfit_module("body")
     sb = body_object(body)
     try:
         reg.check_registrable(sb)
@@ -312,8 +315,8 @@ def registered_target(base: BodyInput, target: BodyInput, job=None, gender: str 
             job.update(stage=f"registering: {stage}", fraction=fraction if show_fraction else None)
 
     def make():
-        body, reg = seamfit_module("body.register").target_for(body_object(base), body_object(target),
-                                                               gender=gender, progress=tell)
+        body, reg = seamfit_module("body").target_for(body_object(base), body_object(target),
+                                                      gender=gender, progress=tell)
         if job is not None:
             job.check()
         return body, reg
@@ -323,7 +326,7 @@ def registered_target(base: BodyInput, target: BodyInput, job=None, gender: str 
 def fit_ease(body: BodyInput, g: "Garment") -> dict:
     """Ease in cm (garment tape girth minus body girth) at the body's bust, waist and hip
     levels, by seamfit's fit measure; a level the garment does not cover is left out."""
-    fit = seamfit_module("opt.fit")
+    fit = seamfit_module("opt")
     levels = body_measurements(body).get("levels_z_m")
     report = fit.ease_report(body_object(body), g.x, g.triangles, levels)
     return {k: float(v) for k, v in report.items() if v is not None}
@@ -357,8 +360,7 @@ def device_status() -> dict:
         ok, why = seamfit_module("device").cuda_available()
         name = ""
         if ok:
-            from seamfit import _native
-            name = str(_native.core().cuda_device_name(0))
+            name = seamfit_module("device").cuda_device_name(0)
         return {"cuda": bool(ok), "why": why, "name": name, "error": ""}
     except Exception as exc:   # a broken install is shown in the panel, not raised while drawing
         return {"cuda": False, "why": "", "name": "", "error": str(exc)}
@@ -538,7 +540,7 @@ def base_drape(inp: RunInputs, job):
         tracker.plan.tolerance = float(settings.tolerance)
         # As `seamfit drape` does: hint placements are wrapped around the body first, and
         # a settle that stagnates restarts from a drape of a coarser mesh.
-        res = seamfit_module("sim.multilevel").drape_coarse_to_fine(
+        res = seamfit_module("sim").drape_coarse_to_fine(
             simulator, pattern_from_json(inp.pattern_json), mode="auto", progress=callback)
         job.check()     # a cancelled drape is never cached
         if getattr(res, "cancelled", False):
@@ -605,7 +607,7 @@ def _grade_progress(job, tracker):
 
 def grade_settings(inp: RunInputs):
     """seamfit's GradeSettings for the inputs; a bad further setting is a one-line error."""
-    opt = seamfit_module("opt.grade")
+    opt = seamfit_module()
     import dataclasses
     fields = {f.name for f in dataclasses.fields(opt.GradeSettings)}
     given = {"strengths", "method", "edge_length_cm", "sdf_spacing", "device", *inp.grade}
@@ -671,13 +673,13 @@ def run_grade(inp: RunInputs, job) -> GradeOutput:
     """seamfit.opt.grade on the captured inputs, cached by their content: the same inputs
     give the previous result at once. Within a run seamfit reuses its own caches of body
     distance fields and base drapes, so changing strengths, the method or the target skips those."""
-    opt = seamfit_module("opt.grade")
+    opt = seamfit_module()
     check_device(inp.device)
     # The method is part of the result's key only: the distance fields and the base drape
     # it starts from are seamfit's, keyed without it, so a new method reuses them.
     key = digest(inp.pattern_json, round(inp.edge_length_cm, 6), inp.base.key, inp.target.key,
                  inp.strengths, inp.grade, inp.sim, inp.method, inp.grade_options)
-    from seamfit.errors import SolveError
+    SolveError = seamfit_module("errors").SolveError
 
     def make():
         pattern = pattern_from_json(inp.pattern_json)

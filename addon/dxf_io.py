@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import os
 import tempfile
-from argparse import Namespace
 from pathlib import Path
 
 from .compute import AddonError, seamfit_module
@@ -52,7 +51,7 @@ def file_sizes(path: str) -> tuple[list[str], str | None]:
     key = (str(path), st.st_mtime_ns, st.st_size)
     if key not in _sizes_memo:
         try:
-            sizes = seamfit_module("pattern.dxf_sizes").read_dxf_sizes(path)
+            sizes = seamfit_module("pattern").read_dxf_sizes(path)
             _sizes_memo[key] = (list(sizes.labels), sizes.sample_size)
         except Exception:       # shown by the import itself, as one line
             _sizes_memo[key] = ([], None)
@@ -64,13 +63,12 @@ def read(path: str, size: str | None):
     gives its stitches (and placements) when there is one; otherwise the library proposes
     stitches (sidecar entries, each ``confirmed: false``) for the user to confirm."""
     _need_ezdxf()
-    io = seamfit_module("pattern.io")
-    sizes = io.read_dxf_size_file(path, size=size)
-    pattern = seamfit_module("pattern.dxf_sizes").one_size(sizes, size)
+    patterns = seamfit_module("pattern")
+    sizes = patterns.read_dxf_size_file(path, size=size)
+    pattern = patterns.one_size(sizes, size)
     pattern.source_file = str(path)
-    seams = seamfit_module("pattern.seams")
     has_sidecar = bool((pattern.extra.get("source") or {}).get("seams"))
-    proposals = [] if has_sidecar else seams.propose_stitches(pattern)
+    proposals = [] if has_sidecar else patterns.propose_stitches(pattern)
     return pattern, proposals
 
 
@@ -82,7 +80,7 @@ def notes(pattern) -> list[str]:
 def apply_choices(pattern, entries: list[dict]):
     """``pattern`` with the stitches of the sidecar entries marked confirmed (seamfit's
     sidecar reader checks and applies them; one-line error naming the entry)."""
-    seams = seamfit_module("pattern.seams")
+    seams = seamfit_module("pattern")
     d = seams.sidecar_dict(pattern, entries)
     with tempfile.TemporaryDirectory(prefix="seamfit-seams-") as tmp:
         side = Path(tmp) / "stitches.seams.json"
@@ -96,7 +94,7 @@ def apply_choices(pattern, entries: list[dict]):
 
 def check_drapable(pattern) -> None:
     """seamfit's refusal to drape a DXF pattern without confirmed stitches and placements."""
-    seamfit_module("pattern.seams").check_drapable(pattern)
+    seamfit_module("pattern").check_drapable(pattern)
 
 
 def _inputs(*sources: str | None) -> list:
@@ -105,13 +103,13 @@ def _inputs(*sources: str | None) -> list:
     for source in filter(None, sources):
         out.append(Path(source))
         if is_dxf(source):
-            out.append(seamfit_module("pattern.seams").sidecar_path(source))
+            out.append(seamfit_module("pattern").sidecar_path(source))
     return out
 
 
 def export_dxf(pattern, path: str, flavor: str, allowance_cm: float | None = None, corners: str = "mitre",
                protect: tuple = ()) -> list[str]:
-    """Write ``pattern`` as DXF-AAMA or DXF-ASTM with ``seamfit convert``'s writer: the DXF
+    """Write ``pattern`` as DXF-AAMA or DXF-ASTM with seamfit's pattern writer (``seamfit convert``'s): the DXF
     and, when the pattern has stitches or placements, its seams sidecar, as one set written
     atomically, never over the pattern's source file, the files in ``protect`` (a graded
     pattern's base) or their sidecars. ``allowance_cm``: seam allowance for edges without
@@ -121,16 +119,15 @@ def export_dxf(pattern, path: str, flavor: str, allowance_cm: float | None = Non
     path = Path(path)
     if not is_dxf(path):
         raise AddonError(f"{path}: a DXF export's file name must end in .dxf (.aama.dxf, .astm.dxf)")
-    convert = seamfit_module("commands.convert")
-    args = Namespace(out=path, input=Path(pattern.source_file or path.name), force=True, dxf_out_units="mm",
-                     seam_allowance=allowance_cm, corners=corners)
-    return convert._write(pattern, args, "dxf", flavor, _inputs(pattern.source_file, *protect))
+    return seamfit_module().write_pattern_files(pattern, path, inputs=_inputs(pattern.source_file, *protect),
+                                                force=True, flavor=flavor, units="mm",
+                                                seam_allowance_cm=allowance_cm, corners=corners)
 
 
 def corner_styles() -> tuple:
-    """Seam allowance corners as seamfit offers them (seamfit.pattern.allowance.CORNERS)."""
+    """Seam allowance corners as seamfit offers them (seamfit.pattern.ALLOWANCE_CORNERS)."""
     try:
-        return tuple(seamfit_module("pattern.allowance").CORNERS)
+        return tuple(seamfit_module("pattern").ALLOWANCE_CORNERS)
     except AddonError:
         return ("mitre", "square")
 
@@ -141,8 +138,8 @@ def write_size_run(patterns: list, labels: list[str], base_index: int, dxf_path:
     (``nest.dxf``'s form) and the base with grade-rule numbers plus its RUL table (``.rul``
     beside it), written as one set."""
     _need_ezdxf()
-    from seamfit.output_set import OutputSet
-    sizes = seamfit_module("pattern.dxf_sizes")
+    OutputSet = seamfit_module("output_set").OutputSet
+    sizes = seamfit_module("pattern")
     path = Path(dxf_path)
     if not path.name.lower().endswith(".dxf"):
         raise AddonError(f"{path}: the size run's file must end in .dxf")

@@ -3,7 +3,7 @@
 (``seamfit.opt.PRESETS``, from Wang 2018, Table 1, with seamfit's seam-length strength)."""
 from __future__ import annotations
 
-from seamfit.opt.costs import STRENGTH_NAMES as STRENGTH_KEYS
+from seamfit.opt import STRENGTH_NAMES as STRENGTH_KEYS
 
 DEFAULT = "dress"
 
@@ -26,7 +26,7 @@ def presets() -> dict[str, tuple[str, tuple[float, ...]]]:
 def for_garment(garment_type: str | None) -> str | None:
     """The preset seamfit's "auto" picks for a pattern's garment kind (None when the
     rule picks none of these), so Adjust grades as `seamfit grade` does."""
-    from seamfit.opt.presets import preset_for_garment
+    from seamfit.opt import preset_for_garment
     name = preset_for_garment(garment_type)
     return name if name in presets() else None
 

@@ -230,8 +230,8 @@ def _strength_edited(self, context):
 
 
 def _strength(key: str, default: float):
-    """The scene property of one term's strength (its label and help from seamfit.opt.costs)."""
-    from seamfit.opt.costs import STRENGTH_HELP
+    """The scene property of one term's strength (its label and help from seamfit.opt.STRENGTH_HELP)."""
+    from seamfit.opt import STRENGTH_HELP
     name, desc = STRENGTH_HELP[key]
     return FloatProperty(name=name, description=desc + " (1/m²)", default=default, min=0.0,
                          soft_max=1e7, precision=4, update=_strength_edited)

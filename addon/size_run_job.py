@@ -36,7 +36,7 @@ def body_file(path: str) -> BodyInput:
     oriented), named by the file."""
     if not path:
         raise AddonError("a target of the size run has neither an object nor a file")
-    body = seamfit_module("commands.checks").checked_body(path)
+    body = seamfit_module("body").checked_body(path)
     return BodyInput(Path(path).stem, body.vertices, body.faces)
 
 
@@ -59,7 +59,7 @@ def _progress(job, tracker, label: str, k: int, n: int):
 def run(inp: SizeRunInputs, job) -> SizeRunOutput:
     """Grade the pattern to every target in one run (Esc stops it between or within sizes)."""
     from seamfit.errors import SolveError
-    grade_run = seamfit_module("commands.grade_run")
+    size_row = seamfit_module("opt")
     compute.check_device(inp.run.device)
     targets = [t if isinstance(t, BodyInput) else body_file(t) for t in inp.targets]
     if not targets:
@@ -79,8 +79,8 @@ def run(inp: SizeRunInputs, job) -> SizeRunOutput:
         body, _ = compute.registered_target(inp.run.base, t, job, show_fraction=False)
         on_mesh.append((t.name, body))
     warnings: list[str] = []
-    base_index = grade_run._base_place(base, on_mesh, warnings.append)
-    base_label = grade_run._base_label(inp.run.base.name, names)
+    base_index = size_row.base_place(base, on_mesh, warnings.append)
+    base_label = size_row.base_size_label(inp.run.base.name, names)
     progress_module = seamfit_module("progress")
     order: list[str] = []
 
@@ -89,9 +89,9 @@ def run(inp: SizeRunInputs, job) -> SizeRunOutput:
         tracker = progress_module.for_grading(pattern, settings, tolerance=float(sim_settings.tolerance))
         return _progress(job, tracker, label, len(order) - 1, len(targets))
 
-    grade = functools.partial(seamfit_module("opt.grade").grade, fabric=fabric, sim_settings=sim_settings)
+    grade = functools.partial(seamfit_module().grade, fabric=fabric, sim_settings=sim_settings)
     try:
-        result = seamfit_module("opt.size_run").run_sizes(
+        result = seamfit_module().run_sizes(
             pattern, base, on_mesh, base_index, settings, base_label=base_label, grade_fn=grade,
             progress_for=progress_for)
     except SolveError:

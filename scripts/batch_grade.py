@@ -74,13 +74,8 @@ def _prefix_options(argv: list[str]):
 def build_parser():
     """seamfit grade's own parser (from the installed seamfit), with this script's name and
     its two options added."""
-    import argparse
-    from seamfit.commands import grade as grade_command
-    root = argparse.ArgumentParser(prog=PROG)
-    subs = root.add_subparsers(dest="command")
-    grade_command.register(subs)
-    p = subs.choices["grade"]
-    p.prog = PROG
+    from seamfit.commands import grade_parser
+    p = grade_parser(PROG)
     p.description = __doc__.split("\n\n")[0] + ". The options are those of seamfit grade, plus --addon-zip and --drape."
     p.add_argument("--addon-zip", type=Path, default=None, metavar="ZIP",
                    help="install this seamfit extension zip into a temporary folder (removed afterwards) and use it")
@@ -183,7 +178,7 @@ def _apply_settings(s, args, addon) -> None:
 
 def _check_options(args) -> None:
     """The command line's own checks of its numbers, before anything else is imported."""
-    from seamfit.commands.grade import check_grade_numbers
+    from seamfit.commands import check_grade_numbers
     check_grade_numbers(args)
 
 
@@ -191,8 +186,7 @@ def _accuracy(args, result) -> dict | None:
     """With --truth: the landmark errors `seamfit grade --truth` reports."""
     if args.truth is None:
         return None
-    from seamfit.pattern import load_pattern
-    from seamfit.pattern.compare import baseline_errors, landmark_errors
+    from seamfit.pattern import baseline_errors, landmark_errors, load_pattern
     truth = load_pattern(args.truth)
     base = load_pattern(args.pattern)
     return {"truth": str(args.truth), "graded": landmark_errors(result.result.pattern, truth).to_dict(),

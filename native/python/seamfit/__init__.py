@@ -11,7 +11,9 @@ so ``import seamfit`` stays light):
 The modules behind them: ``seamfit.pattern`` (patterns in and out, checks, comparison),
 ``seamfit.body`` (bodies, measurements, distance fields), ``seamfit.mesh`` (panel meshing
 and sewing), ``seamfit.sim`` (the drape), ``seamfit.opt`` (grading) and ``seamfit.settings``
-(every setting's one declaration). The compiled core ``seamfit._core`` is loaded lazily
+(every setting's one declaration), with ``PUBLIC_MODULES`` the rest of the public face: each
+exports what it offers in ``__all__``, and modules below them are the implementation's. The
+compiled core ``seamfit._core`` is loaded lazily
 through ``seamfit._native``.
 """
 from importlib import import_module
@@ -34,13 +36,18 @@ _API = {
     # grading
     "GradeSettings": "seamfit.opt.grade", "GradeResult": "seamfit.opt.grade", "grade": "seamfit.opt.grade",
     "run_sizes": "seamfit.opt.size_run",
-    # the files of a grading, as every front end writes them
-    "write_grade_files": "seamfit.grade_files",
+    # the files of a grading, and a pattern's own file, as every front end writes them
+    "write_grade_files": "seamfit.grade_files", "write_pattern_files": "seamfit.pattern_files",
     # comparing with a drafted pattern
     "landmark_errors": "seamfit.pattern", "baseline_errors": "seamfit.pattern",
 }
 
-__all__ = ["BodyError", "DeviceError", "PatternError", "SeamfitError", "SolveError", "__version__", *_API]
+# The modules a front end (the add-on, the batch script) may use, each through its
+# ``__all__``; everything below them is the implementation's and may change.
+PUBLIC_MODULES = ("pattern", "body", "mesh", "sim", "opt", "settings", "errors", "device", "progress", "cache",
+                  "output_set", "grade_files", "pattern_files", "commands")
+
+__all__ = ["BodyError", "DeviceError", "PatternError", "SeamfitError", "SolveError", "PUBLIC_MODULES", "__version__", *_API]
 
 
 def __getattr__(name: str):

@@ -27,6 +27,8 @@ from typing import Callable, Optional
 
 import numpy as np
 
+__all__ = ["cache_entries", "cache_root", "enforce_limit"]
+
 log = logging.getLogger("seamfit.cache")
 
 DEFAULT_MAX_MB = 2048

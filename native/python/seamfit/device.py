@@ -3,6 +3,9 @@ from __future__ import annotations
 
 from .errors import DeviceError
 
+__all__ = ["check_device", "choose_device", "cuda_available", "cuda_device_name", "require_device",
+           "resolve_device"]
+
 
 def cuda_available() -> tuple[bool, str]:
     """(usable, why not) for the CUDA backend."""
@@ -13,6 +16,12 @@ def cuda_available() -> tuple[bool, str]:
     if c.cuda_device_count() == 0:
         return False, "no CUDA GPU or driver is present on this machine"
     return True, ""
+
+
+def cuda_device_name(index: int = 0) -> str:
+    """The name of CUDA device ``index`` (call after cuda_available() says yes)."""
+    from ._native import core
+    return str(core().cuda_device_name(index))
 
 
 def require_device(device: str, what: str, error: type = DeviceError, *, runnable: bool = True) -> str:

@@ -1,5 +1,8 @@
 """Errors a user can act on. Each names the file, panel, stitch or vertex at fault."""
 
+__all__ = ["BodyError", "DeviceError", "LimitError", "PatternError", "ProblemsError", "SeamfitError",
+           "SolveError", "ValidationError"]
+
 
 class SeamfitError(Exception):
     """Base class for every error seamfit reports to a user."""

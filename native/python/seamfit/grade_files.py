@@ -17,6 +17,8 @@ import copy
 import json
 from pathlib import Path
 
+__all__ = ["FILES", "PICTURES", "write_grade_files", "written_files"]
+
 FILES = ("pattern.json", "pattern.svg", "garment.obj", "report.json")
 PICTURES = ("pattern.png", "drape.png")
 

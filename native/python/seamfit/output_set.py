@@ -22,6 +22,8 @@ from typing import Iterable, Sequence
 
 from .errors import SeamfitError
 
+__all__ = ["OutputSet", "add_force_argument", "check_not_an_input"]
+
 TMP_TAG = ".seamfit-tmp-"
 OLD_TAG = ".seamfit-old-"
 _SIGNALS = {signal.SIGINT, signal.SIGTERM}

@@ -39,6 +39,9 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable, Optional
 
+__all__ = ["DRAPE_STAGES", "STAGES", "ConsoleProgress", "GradeProgress", "Plan", "Snapshot", "estimate_vertices",
+           "for_drape", "for_grading", "format_seconds", "plan_grading", "status_text"]
+
 # The stages of a grading, in order, as they are named to the user.
 # "coarse grading" only where a fine mesh is graded coarse-to-fine (seamfit.opt.coarse_start).
 STAGES = ("coarse grading", "meshing", "body fields", "base drape", "transfer", "level scaling", "initial drapes",

@@ -19,6 +19,10 @@ import math
 from dataclasses import MISSING, dataclass, field, fields
 from typing import Any, Optional
 
+__all__ = ["Addon", "DRAPE", "GRADE", "Setting", "add_options", "blender_kind", "blender_property", "check_fields",
+           "check_options", "echo", "for_command", "from_blender", "from_options", "get", "reference", "setting",
+           "table", "to_blender", "typed_decimal"]
+
 # The command-line commands a setting can appear in.
 GRADE = ("grade", "grade-run", "batch")
 DRAPE = ("drape",)

@@ -61,7 +61,8 @@ def prepare_base(argv: list[str]) -> int:
     import argparse
     from dataclasses import replace
     from pathlib import Path
-    from ..commands.checks import checked_body, checked_pattern
+    from ..body import checked_body
+    from ..commands.checks import checked_pattern
     from ..commands.grade import add_grade_options, check_grade_options, settings_from_args
     from ..device import choose_device
     from ..mesh import build_sewn_mesh

@@ -26,7 +26,7 @@ class MeasurementError(SeamfitError):
     """A measurement file or value that cannot make a body."""
 
 
-UNITS = {"cm": 1.0, "mm": 0.1, "m": 100.0, "in": 2.54, "inch": 2.54, "inches": 2.54}
+MEASUREMENT_UNITS = {"cm": 1.0, "mm": 0.1, "m": 100.0, "in": 2.54, "inch": 2.54, "inches": 2.54}
 
 # Plausible adult values (cm), wide: outside them the units are the likely mistake.
 RANGES_CM = {
@@ -132,9 +132,9 @@ def load_measurement_sets(path) -> list[MeasurementSet]:
 def _unit_factor(unit, where: str) -> float:
     if unit is None:
         raise MeasurementError(f"{where}: missing units; add \"units\": \"cm\" (or mm, m, in)")
-    factor = UNITS.get(str(unit).strip().lower())
+    factor = MEASUREMENT_UNITS.get(str(unit).strip().lower())
     if factor is None:
-        raise MeasurementError(f"{where}: unknown units {unit!r}; use one of {', '.join(UNITS)}")
+        raise MeasurementError(f"{where}: unknown units {unit!r}; use one of {', '.join(MEASUREMENT_UNITS)}")
     return factor
 
 

@@ -239,3 +239,19 @@ def check_body(body: Body) -> BodyReport:
     if rep.errors:
         raise BodyError("; ".join(rep.errors))
     return rep
+
+
+def checked_body(path, warn=None):
+    """The body at ``path`` with its faces oriented consistently outward (as ``seamfit
+    validate`` repairs them and the SDF uses them); BodyError when it fails its checks,
+    ``warn`` gets each warning."""
+    from .io import load_body
+    body = load_body(path)
+    rep = check_body(body)
+    for m in rep.warnings:
+        if warn is not None:
+            warn(m)
+    if rep.oriented_faces is not None and not (rep.oriented_faces == body.faces).all():
+        body = Body(body.vertices, rep.oriented_faces, name=body.name, source_file=body.source_file,
+                    meta=dict(body.meta))
+    return body

@@ -41,17 +41,3 @@ def checked_pattern(path, edge_length_cm: float | None = None, warn=None, *, dra
     return pattern
 
 
-def checked_body(path, warn=None):
-    """The body at ``path`` with its faces oriented consistently outward (as ``seamfit
-    validate`` repairs them and the SDF uses them); BodyError when it fails its checks,
-    ``warn`` gets each warning."""
-    from ..body import Body, check_body, load_body
-    body = load_body(path)
-    rep = check_body(body)
-    for m in rep.warnings:
-        if warn is not None:
-            warn(m)
-    if rep.oriented_faces is not None and not (rep.oriented_faces == body.faces).all():
-        body = Body(body.vertices, rep.oriented_faces, name=body.name, source_file=body.source_file,
-                    meta=dict(body.meta))
-    return body

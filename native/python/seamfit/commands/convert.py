@@ -13,8 +13,8 @@ from pathlib import Path
 
 from ..errors import SeamfitError
 from ..output_set import OutputSet, add_force_argument, check_not_an_input
+from ..pattern_files import output_kind, write_pattern_files
 
-OUT_KINDS = {".json": "sewpat-1", ".svg": "svg", ".dxf": "dxf"}
 
 EPILOG = """\
 formats, by the extension of IN and OUT:
@@ -82,14 +82,6 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _out_kind(out: Path) -> str:
-    kind = OUT_KINDS.get(out.suffix.lower())
-    if kind is None:
-        raise SeamfitError(f"{out}: unknown output type {out.suffix or '(no extension)'!r}; "
-                           "expected .json (sewpat-1), .svg or .dxf")
-    return kind
-
-
 def run(args) -> int:
     from ..pattern.dxf import flavor_from_path
     from ..pattern.io import read_pattern_file
@@ -97,7 +89,7 @@ def run(args) -> int:
 
     if args.out is None and args.propose_seams is None:
         raise SeamfitError("give --out OUT (and/or --propose-seams SEAMS.json)")
-    kind = _out_kind(args.out) if args.out is not None else None
+    kind = output_kind(args.out) if args.out is not None else None
     if args.seam_allowance is not None:
         number("--seam-allowance", args.seam_allowance, allow_zero=True)
     inputs = [args.input, args.seams, args.rul]
@@ -142,7 +134,9 @@ def run(args) -> int:
                     print(f"seamfit convert: warning: proposed stitch {len(pattern.stitches) + j} "
                           f"({prop['a']['panel']} / {prop['b']['panel']}): {w}", file=sys.stderr)
     if args.out is not None:
-        written += _write(pattern, args, kind, flavor, inputs)
+        written += write_pattern_files(pattern, args.out, inputs=inputs, force=args.force, flavor=flavor,
+                                       units=args.dxf_out_units, seam_allowance_cm=args.seam_allowance,
+                                       corners=args.corners, title=Path(args.input).name)
     if not args.quiet:
         print(f"{args.input}: {fmt}, {len(pattern.panels)} panels, {len(pattern.stitches)} stitches")
         for w in written:
@@ -151,37 +145,6 @@ def run(args) -> int:
             print("note: the DXF has no stitches; propose them with --propose-seams SEAMS.json, confirm "
                   "them there and convert with --seams SEAMS.json", file=sys.stderr)
     return 0
-
-
-def _write(pattern, args, kind: str, flavor: str | None, inputs) -> list[str]:
-    out: Path = args.out
-    files = [out.name]
-    sidecar = None
-    if kind == "dxf":
-        from ..pattern.seams import sidecar_dict, sidecar_path
-        d = sidecar_dict(pattern)
-        if d["stitches"] or d.get("placements"):
-            sidecar = sidecar_path(out)
-            files.append(sidecar.name)
-    with OutputSet(out.parent, inputs=inputs, force=args.force, files=files) as tmp:
-        if kind == "sewpat-1":
-            from ..pattern.sewpat import write_sewpat
-            pattern.source_file = None
-            write_sewpat(pattern, tmp / out.name)
-        elif kind == "svg":
-            from ..pattern import write_svg
-            write_svg(tmp / out.name, pattern, title=Path(args.input).name)
-        else:
-            from ..pattern.dxf import write_dxf
-            from ..pattern.seams import write_sidecar
-            write_dxf(pattern, tmp / out.name, flavor=flavor, units=args.dxf_out_units,
-                      seam_allowance_cm=args.seam_allowance, corners=args.corners)
-            if sidecar is not None:
-                write_sidecar(tmp / sidecar.name, d)
-    shown = [f"{out}" + (f" (DXF-{flavor.upper()})" if kind == "dxf" else "")]
-    if sidecar is not None:
-        shown.append(f"{sidecar} ({len(pattern.stitches)} stitches)")
-    return shown
 
 
 def _all_sizes(sizes, args, kind: str, flavor: str, inputs) -> int:

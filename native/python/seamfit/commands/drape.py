@@ -67,7 +67,8 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from .. import settings
     from ..device import check_device
-    from .checks import checked_body, checked_pattern, whole
+    from ..body import checked_body
+    from .checks import checked_pattern, whole
 
     check_device(args.device)  # fails at once, with the reason, when cuda cannot run here
     settings.check_options(args, "drape")

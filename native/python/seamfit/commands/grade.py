@@ -85,7 +85,8 @@ def add_grade_options(p, *, truth: bool) -> None:
 
 def run(args) -> int:
     from ..pattern import load_pattern
-    from .checks import checked_body, checked_pattern
+    from ..body import checked_body
+    from .checks import checked_pattern
 
     out = Path(args.out)
     # Options, inputs and --truth are checked before any meshing, drape or search.

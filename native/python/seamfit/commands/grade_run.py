@@ -54,8 +54,9 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from ..body import load_measurement_sets
-    from .checks import checked_body, checked_pattern
+    from ..body import checked_body, load_measurement_sets
+    from ..opt.size_run import base_place, base_size_label
+    from .checks import checked_pattern
 
     out = Path(args.out)
     check_grade_options(args)
@@ -84,8 +85,8 @@ def run(args) -> int:
         if sets is not None:
             targets = _chart_bodies(args, sets)
         targets = [(lab, _on_base_mesh(args, base_body, body, lab)) for lab, body in targets]
-        base_label = _base_label(args.base_body.stem, labels)
-        base_index = _base_place(base_body, targets, warn)
+        base_label = base_size_label(args.base_body.stem, labels)
+        base_index = base_place(base_body, targets, warn)
         summary = _run(args, settings, base_pattern, base_body, targets, base_index, base_label, tmp)
     if not args.quiet:
         print(f"wrote {out}/ ({len(targets)} sizes), nest.svg, nest.dxf, graded.dxf, graded.rul, summary.json, "
@@ -106,14 +107,6 @@ def _no_repeats(paths) -> None:
         seen[key] = p
 
 
-def _base_label(stem: str, labels: list[str]) -> str:
-    label, j = stem, 2
-    while label in labels:
-        label = f"{stem} (base)" if j == 2 else f"{stem} (base {j - 1})"
-        j += 1
-    return label
-
-
 def _chart_bodies(args, sets) -> list:
     from ..body import from_measurements
     out = []
@@ -129,25 +122,6 @@ def _on_base_mesh(args, base_body, body, label):
     ns = argparse.Namespace(**{**vars(args), "target_body": label})
     body, _ = _registered_target(ns, base_body, body, command="grade-run")
     return body
-
-
-def _size_key(body):
-    from ..body.measure import body_measurements
-    m = body_measurements(body)
-    vals = [m.get(k) for k in ("bust", "waist", "hip")]
-    return sum(v for v in vals if v is not None)
-
-
-def _base_place(base_body, targets, warn) -> int:
-    """The base's place in the row, by girth (bust + waist + hip); a warning when the
-    targets are not given smallest to largest."""
-    from ..opt.size_run import base_position
-    keys = [_size_key(b) for _, b in targets]
-    if any(b < a - 0.5 for a, b in zip(keys, keys[1:])):
-        warn("the target bodies are not in size order by girth (bust + waist + hip: "
-             + ", ".join(f"{lab} {k:.1f} cm" for (lab, _), k in zip(targets, keys))
-             + "); sizes start from the neighbour given, and jumps are judged in the order given")
-    return base_position(_size_key(base_body), keys)
 
 
 def _folder_names(labels: list[str]) -> list[str]:

@@ -55,6 +55,34 @@ def base_position(base_key: float, target_keys: Sequence[float]) -> int:
     return len(target_keys)
 
 
+def base_size_label(stem: str, labels: Sequence[str]) -> str:
+    """The base's label in the row: its body's name, made distinct from the targets'."""
+    label, j = stem, 2
+    while label in labels:
+        label = f"{stem} (base)" if j == 2 else f"{stem} (base {j - 1})"
+        j += 1
+    return label
+
+
+def size_key(body) -> float:
+    """A body's place in a size row: bust + waist + hip girth (cm)."""
+    from ..body.measure import body_measurements
+    m = body_measurements(body)
+    vals = [m.get(k) for k in ("bust", "waist", "hip")]
+    return sum(v for v in vals if v is not None)
+
+
+def base_place(base_body, targets, warn) -> int:
+    """The base's place among ``targets`` ((label, body) pairs) by girth; ``warn`` gets a
+    warning when the targets are not given smallest to largest."""
+    keys = [size_key(b) for _, b in targets]
+    if any(b < a - 0.5 for a, b in zip(keys, keys[1:])):
+        warn("the target bodies are not in size order by girth (bust + waist + hip: "
+             + ", ".join(f"{lab} {k:.1f} cm" for (lab, _), k in zip(targets, keys))
+             + "); sizes start from the neighbour given, and jumps are judged in the order given")
+    return base_position(size_key(base_body), keys)
+
+
 def grading_order(n: int, base_index: int) -> list[tuple[int, Optional[int]]]:
     """(size, neighbour it starts from) for every size but the base, walking outward from
     the base; a base neighbour starts from its own initialization (None)."""

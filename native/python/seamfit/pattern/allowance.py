@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import PatternError
 from .model import Panel
 
-CORNERS = ("mitre", "square")
+ALLOWANCE_CORNERS = ("mitre", "square")
 MITRE_LIMIT = 4.0
 _PARALLEL = 0.02                 # |sin| of a turn below which two offset lines are parallel
 
@@ -45,8 +45,8 @@ def segment_allowances(panel: Panel, default_cm: float | None) -> np.ndarray:
 
 def cut_line(panel: Panel, default_cm: float | None = None, corners: str = "mitre") -> np.ndarray:
     """The cutting line (m, 2) in cm, same orientation as the outline."""
-    if corners not in CORNERS:
-        raise PatternError(f"unknown corner style {corners!r} (expected {' or '.join(CORNERS)})")
+    if corners not in ALLOWANCE_CORNERS:
+        raise PatternError(f"unknown corner style {corners!r} (expected {' or '.join(ALLOWANCE_CORNERS)})")
     o = np.asarray(panel.outline_cm, dtype=float)
     n = len(o)
     w = segment_allowances(panel, default_cm)

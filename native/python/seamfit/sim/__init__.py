@@ -6,5 +6,6 @@ exposes what the pattern optimizer's adjoint needs: the force f(p, x), the
 tangent stiffness (exact and PSD-projected Hessian) and (df/dp)^T lambda.
 """
 from .model import DrapeResult, Fabric, SimSettings, Simulator
+from .multilevel import drape_coarse_to_fine
 
-__all__ = ["DrapeResult", "Fabric", "SimSettings", "Simulator"]
+__all__ = ["DrapeResult", "Fabric", "SimSettings", "Simulator", "drape_coarse_to_fine"]

@@ -12,9 +12,9 @@ simulator's limits: seams closed (largest sewing gap <= 2 mm), nothing inside th
 OUT/results.json (rewritten after every case). ``report`` writes docs/dress_results.md from
 the runs' results and the reading of them in tests/benchmarks/dress_notes.md (--notes): the
 notes' first paragraph is the page's summary, in bold under its title, the rest follows the
-table. The committed page is
+table. The committed page is rewritten by (one line)
 
-    python tests/benchmarks/bench_dress.py report docs/results/data/dress_results.json \
+    python tests/benchmarks/bench_dress.py report docs/results/data/dress_results.json
         docs/results/data/dress_results_rerun.json
 """
 from __future__ import annotations
@@ -138,8 +138,12 @@ def _run_line(meta: dict, i: int, n_cases: int) -> str:
 
 
 def split_notes(text: str) -> tuple[str, str]:
-    """The notes file's summary (its first paragraph, joined into one line) and the rest."""
-    head, _, rest = text.strip().partition("\n\n")
+    """The notes file's summary (its first paragraph, joined into one line) and the rest; no
+    summary when the file starts with a heading."""
+    text = text.strip()
+    if text.startswith("#"):
+        return "", text
+    head, _, rest = text.partition("\n\n")
     return " ".join(head.split()), rest.strip()
 
 

@@ -14,7 +14,7 @@
 #ifdef SEAMFIT_WITH_CUDA
 #include "body/sdf_gpu.hpp"
 #include "device/device_info.hpp"
-#include "sim/sim_gpu.hpp"
+#include "device/cuda_error.hpp"
 #endif
 
 namespace py = pybind11;

@@ -9,7 +9,7 @@
 #include "body/tri_bvh.hpp"
 #include "body/tri_distance.hpp"
 #include "device/dev_buffer.cuh"
-#include "sim/sim_gpu.hpp"
+#include "device/cuda_error.hpp"
 
 namespace seamfit::cuda {
 

@@ -6,7 +6,7 @@
 #include <cstddef>
 #include <string>
 
-#include "sim/sim_gpu.hpp"
+#include "device/cuda_error.hpp"
 
 namespace seamfit::cuda {
 

@@ -11,14 +11,10 @@
 #include <stdexcept>
 #include <string>
 
+#include "device/cuda_error.hpp"
 #include "sim/simulator.hpp"
 
 namespace seamfit::cuda {
-
-// A CUDA runtime failure or a missing device (seamfit.errors.DeviceError).
-struct CudaError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 struct GpuOptions {
   int device = 0;

@@ -18,6 +18,7 @@ drape's time is reported for the run that made it.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import platform
@@ -30,6 +31,9 @@ sys.path.insert(0, str(ROOT / "native" / "python"))
 
 from seamfit.fileio import atomic_write_text  # noqa: E402
 from seamfit.opt.grade import GradeSettings  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import measure_switches  # noqa: E402
 
 SAMPLES = ROOT / "sample_files"
 PATTERN = SAMPLES / "patterns" / "gc_pencil_skirt" / "size06" / "pattern.json"
@@ -59,14 +63,17 @@ def grade_once(edge_cm: float, device: str, args) -> dict:
     settings = GradeSettings(edge_length_cm=edge_cm, max_outer_iterations=args.max_iterations,
                              sdf_spacing=args.sdf_spacing, sdf_region=args.sdf_region,
                              adjoint_forcing=args.adjoint_forcing,
-                             accept_unsettled_base=args.accept_unsettled_base,
-                             device_state=not args.host_state,
                              checkpoint_every=args.checkpoint_every, device=device,
                              evaluate_base_pattern=False, time_budget_s=args.time_budget)
     sim_settings = SimSettings(max_seconds=args.stage_seconds,
                                **({"rho_max": args.rho_max} if args.rho_max else {}))
     t0 = time.perf_counter()
-    res = grade(load_pattern(args.pattern), load_body(B0), load_body(B1), settings, sim_settings=sim_settings)
+    with contextlib.ExitStack() as switches:
+        if args.host_state:
+            switches.enter_context(measure_switches.host_state())
+        if args.accept_unsettled_base:
+            switches.enter_context(measure_switches.accept_unsettled_base())
+        res = grade(load_pattern(args.pattern), load_body(B0), load_body(B1), settings, sim_settings=sim_settings)
     r = res.report
     return {"garment": args.pattern.parent.parent.name, "edge_length_cm": edge_cm, "sdf_spacing_mm": 1000 * args.sdf_spacing, "device": r["device"],
             "sdf": r.get("sdf"),

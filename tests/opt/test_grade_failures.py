@@ -41,14 +41,15 @@ def test_a_base_garment_that_does_not_dress_its_body_is_refused():
 
 
 def test_an_unsettled_base_drape_is_used_only_when_asked_and_never_cached(tmp_path, monkeypatch):
-    """accept_unsettled_base (timing benchmarks of meshes that do not settle) grades from the
+    """The benchmarks' accept_unsettled_base (timing meshes that do not settle) grades from the
     unsettled drape and says so in the report; the drape is not cached, so a normal grading
     of the same inputs still refuses it."""
+    from benchmarks.measure_switches import accept_unsettled_base
     monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
     short = SimSettings(max_iterations=20, polish=False)
-    res = grade(load_pattern(PATTERN), load_body(B0), load_body(B1),
-                GradeSettings(**COARSE, max_outer_iterations=2, checkpoint_every=1, accept_unsettled_base=True),
-                sim_settings=short)
+    with accept_unsettled_base():
+        res = grade(load_pattern(PATTERN), load_body(B0), load_body(B1),
+                    GradeSettings(**COARSE, max_outer_iterations=2, checkpoint_every=1), sim_settings=short)
     bd = res.report["base_drape"]
     assert bd["converged"] is False and bd["residual"] > 1e-3 and not bd["cached"]
     assert np.isfinite(res.report["objective_final"])

@@ -25,11 +25,10 @@ from ..device_arrays import host, to_device
 from .output import SearchOutcome
 
 
-def _on_gpu(ctx) -> bool:
-    """Whether the search's state can stay on the GPU: its simulator and adjoint run there
+def state_on_gpu(ctx) -> bool:
+    """Whether the search's state stays on the GPU: its simulator and adjoint run there
     (the other pieces take GPU arrays on either device)."""
-    return (ctx.adjoint.device == "cuda" and ctx.sim.settings.device == "cuda"
-            and ctx.settings.device_state)
+    return ctx.adjoint.device == "cuda" and ctx.sim.settings.device == "cuda"
 
 
 # Real gradings start at objectives of order 1 to 1e3; one this small is floating-point
@@ -84,7 +83,7 @@ def descend(ctx, objective, theta0, x0, *, label: str = "optimize") -> SearchOut
     split = {"simulation": 0.0, "gradient": 0.0, "objective": 0.0}
     record(f0, True)
     # The state the outer iterations work on: x and theta themselves, or their GPU copies.
-    gpu = _on_gpu(ctx)
+    gpu = state_on_gpu(ctx)
     x_w, theta_w = (to_device(x), to_device(theta)) if gpu else (x, theta)
     max_work = 4 * settings.max_outer_iterations
     if f0 <= OBJECTIVE_ROUNDOFF:

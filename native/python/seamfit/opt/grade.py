@@ -126,12 +126,6 @@ class GradeSettings:
         0.01, "on the GPU, solve the adjoint at inexact states only to this times the state's residual (0: to "
         "1e-8 everywhere, as the CPU's direct solve, 4x slower at 60K triangles)", low=0, high=1,
         high_open=True, flag="--adjoint-forcing", metavar="F", commands=GRADE)
-    # On the GPU, keep theta and x in GPU memory between exact checkpoints (False: the
-    # loop on host arrays, each GPU piece copying in and out; for measuring what it saves).
-    device_state: bool = True
-    # Timing benchmarks only: grade from a base drape that did not settle (the report's
-    # base_drape says converged False) instead of stopping with SolveError.
-    accept_unsettled_base: bool = False
 
     def resolved_strengths(self, garment_type: str | None = None) -> Strengths:
         if self.strengths is not None:

@@ -39,7 +39,8 @@ def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, 
     """x-bar, the base garment on the base body, cached on disk by content
     (refresh: drape afresh and overwrite the cached one). A drape that does not settle
     raises SolveError, unless accept_unsettled (timing benchmarks of meshes the solver
-    cannot settle): then it is returned, not cached, with converged False in its info."""
+    cannot settle, tests/benchmarks/measure_switches.py): then it is returned, not cached,
+    with converged False in its info."""
     from ..sim.multilevel import drape_coarse_to_fine
     # The device is not an input of the physics: a drape made on the GPU serves the CPU too.
     physics = {k: v for k, v in asdict(settings).items() if k != "device"}
@@ -204,8 +205,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
                      "coarse_edge_length_cm": float(coarse.mesh.edge_length_cm)}
     else:
         xbar, base_info = once("base_drape", lambda: base_drape(
-            mesh, base_pattern, base_body, base_sdf, fabric, sim_settings, progress=drape_progress,
-            accept_unsettled=settings.accept_unsettled_base))
+            mesh, base_pattern, base_body, base_sdf, fabric, sim_settings, progress=drape_progress))
     problem = garment_outside_field(base_sdf, base_field, xbar, "base", "at the end of the base drape")
     if problem:
         if not base_info.get("cached") and "key" in base_info:

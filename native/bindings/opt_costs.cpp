@@ -3,10 +3,12 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <memory>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "bindings.hpp"
@@ -35,21 +37,57 @@ auto make_cost_set(const IArr& triangles, const DArr& pbar, const DArr& xbar) {
   return out;
 }
 
-void cost_set_distance(PyCostSet& c, const FArr& values, const DArr& origin, double spacing, const DArr& phibar) {
-  check_shape(phibar, c.cs->n_vertices(), -1, "phibar");
+// The registered term called name, or ValueError listing them.
+opt::CostTerm cost_term(const std::string& name) {
+  const opt::CostTerm t = opt::cost_term_named(name.c_str());
+  if (t == opt::kNumCostTerms) {
+    std::string known;
+    for (const auto& info : opt::kCostTerms) known += std::string(known.empty() ? "" : ", ") + info.name;
+    throw py::value_error("unknown cost term '" + name + "'; the terms are " + known);
+  }
+  return t;
+}
+
+void cost_set_strengths(PyCostSet& c, const py::dict& strengths) {
+  opt::CostStrengths s{};
+  for (const auto& item : strengths) s[cost_term(py::cast<std::string>(item.first))] = py::cast<double>(item.second);
+  c.cs->set_strengths(s);
+}
+
+void cost_set_target_sdf(PyCostSet& c, const FArr& values, const DArr& origin, double spacing) {
   const SdfGridView g = grid_view(values, origin, spacing);
   try {
-    c.cs->set_distance(g, phibar.data());
+    c.cs->set_target_sdf(g);
   } catch (const std::invalid_argument& e) {
     throw py::value_error(e.what());
   }
   c.sdf_values = values;  // keep the grid alive for the view
 }
 
-void cost_set_positional(PyCostSet& c, const DArr& xtilde, const DArr& u) {
-  check_shape(xtilde, c.cs->n_vertices(), 3, "xtilde");
-  check_shape(u, c.cs->n_vertices(), -1, "u");
-  c.cs->set_positional(as<Vec3>(xtilde), u.data());
+void cost_set_inputs(PyCostSet& c, const std::string& name, const DArr& values) {
+  const opt::CostTerm t = cost_term(name);
+  const int width = c.cs->width(t);
+  check_shape(values, c.cs->elements(t).count, width == 1 ? -1 : width, name.c_str());
+  try {
+    c.cs->set_inputs(t, values.data());
+  } catch (const std::invalid_argument& e) {
+    throw py::value_error(e.what());
+  }
+}
+
+// Rows of cols ints or doubles as a new (rows, cols) array.
+template <class V>
+py::array_t<V> rows_array(const std::vector<V>& v, int cols) {
+  py::array_t<V> a({py::ssize_t(cols ? v.size() / cols : 0), py::ssize_t(cols)});
+  std::copy(v.begin(), v.end(), a.mutable_data());
+  return a;
+}
+
+// (name, label, help) per registered term, in registry order.
+py::tuple cost_terms_table() {
+  py::list out;
+  for (const auto& info : opt::kCostTerms) out.append(py::make_tuple(info.name, info.label, info.help));
+  return py::tuple(out);
 }
 
 auto cost_set_evaluate(PyCostSet& c, const DArr& x, const DArr& p) {
@@ -57,7 +95,7 @@ auto cost_set_evaluate(PyCostSet& c, const DArr& x, const DArr& p) {
   check_shape(x, n, 3, "x");
   check_shape(p, n, 2, "p");
   DArr gx = new_array(n, 3), gp = new_array(n, 2);
-  std::array<double, opt::kNumCostTerms> t{};
+  opt::CostValues t{};
   double v;
   try {
     py::gil_scoped_release nogil;
@@ -68,45 +106,36 @@ auto cost_set_evaluate(PyCostSet& c, const DArr& x, const DArr& p) {
   return py::make_tuple(v, cost_terms_dict(t), gx, gp);
 }
 
-auto cost_set_evaluations(const PyCostSet& c) {
-  const auto& e = c.cs->evaluations();
-  py::dict d;
-  d["dis"] = e[opt::kDistance];
-  d["smo"] = e[opt::kSmoothness];
-  d["str"] = e[opt::kStretching];
-  d["pos"] = e[opt::kPositional];
-  return d;
-}
 
 // Binds CostSet, the fitting costs on the CPU.
 void bind_cost_set(py::module_& m) {
   py::class_<PyCostSet>(m, "CostSet", "Fitting costs (Eq. 11-16) on the CPU.")
       .def(py::init(&make_cost_set), py::arg("triangles"), py::arg("pbar"), py::arg("xbar"),
            "From triangles (T, 3), the base pattern pbar (n, 2) and the base garment xbar (n, 3).")
-      .def(
-          "set_strengths",
-          [](PyCostSet& c, double dis, double smo, double str, double pos) {
-            c.cs->set_strengths({dis, smo, str, pos});
-          },
-          py::arg("dis"), py::arg("smo"), py::arg("str"), py::arg("pos"),
-          "Strengths of the distance, smoothness, stretching and positional terms.")
-      .def("set_distance", &cost_set_distance, py::arg("values"), py::arg("origin"), py::arg("spacing"),
-           py::arg("phibar"),
-           "The target body's SDF grid (kept alive here) and the base garment's distances phibar (n,).")
-      .def("set_positional", &cost_set_positional, py::arg("xtilde"), py::arg("u"),
-           "The transferred garment xtilde (n, 3) (Eq. 15) and per-vertex weights u (n,).")
+      .def("set_strengths", &cost_set_strengths, py::arg("strengths"),
+           "{name: strength} of the terms in COST_TERMS; a term left out gets 0.")
+      .def("set_target_sdf", &cost_set_target_sdf, py::arg("values"), py::arg("origin"), py::arg("spacing"),
+           "The target body's SDF grid (kept alive here), for the terms that sample it.")
+      .def("set_inputs", &cost_set_inputs, py::arg("name"), py::arg("values"),
+           "The constants of the term called name, where it takes them from the caller: one row of its "
+           "width per element (a 1-D array for width 1).")
       .def("evaluate", &cost_set_evaluate, py::arg("x"), py::arg("p"), "-> (value, terms, grad_x, grad_p)")
-      .def_property_readonly("evaluations", &cost_set_evaluations, "evaluations so far per term")
       .def_property_readonly(
-          "edges", [](const PyCostSet& c) { return c.cs->edges(); }, "the mesh edges as vertex pairs")
+          "evaluations", [](const PyCostSet& c) { return cost_terms_dict(c.cs->evaluations()); },
+          "evaluations so far per term")
       .def_property_readonly(
-          "hinges", [](const PyCostSet& c) { return c.cs->hinges(); }, "the interior hinges as 4 vertices")
+          "edges", [](const PyCostSet& c) { return rows_array(c.cs->elements(opt::kEdges).ids, 2); },
+          "the mesh edges as vertex pairs")
       .def_property_readonly(
-          "hinge_weights", [](const PyCostSet& c) { return c.cs->hinge_weights(); },
-          "the smoothness weights of each hinge's 4 vertices")
-      .def_property_readonly(
-          "stretch_ratio_bar", [](const PyCostSet& c) { return c.cs->stretch_ratio_bar(); },
-          "per edge, the base garment's stretch ratio");
+          "hinges", [](const PyCostSet& c) { return rows_array(c.cs->elements(opt::kHinges).ids, 4); },
+          "the interior hinges as 4 vertices")
+      .def(
+          "constants",
+          [](const PyCostSet& c, const std::string& name) {
+            const opt::CostTerm t = cost_term(name);
+            return rows_array(c.cs->constants(t), c.cs->width(t));
+          },
+          py::arg("name"), "a term's constants, one row per element (empty before its inputs are set)");
 }
 
 auto sdf_sample_grid(const FArr& values, const DArr& origin, double spacing, const DArr& points) {
@@ -170,6 +199,7 @@ auto transfer_query(const DArr& verts, const IArr& faces, const DArr& points, do
 
 // Binds the costs: CostSet, then the SDF sampling and transfer queries.
 void bind_opt_costs(py::module_& m) {
+  m.attr("COST_TERMS") = cost_terms_table();
   bind_cost_set(m);
   m.def("sdf_sample_grid", &sdf_sample_grid, py::arg("values"), py::arg("origin"), py::arg("spacing"),
         py::arg("points"), "Trilinear SDF value and gradient (the interpolant the costs and the simulator use).");

@@ -17,12 +17,11 @@ struct PyCostSet {
   pybind11::array_t<float, pybind11::array::c_style | pybind11::array::forcecast> sdf_values;
 };
 
-inline pybind11::dict cost_terms_dict(const std::array<double, opt::kNumCostTerms>& t) {
+// {name: value} per registered term, in registry order (opt/cost_terms.hpp).
+template <class V>
+pybind11::dict cost_terms_dict(const std::array<V, opt::kNumCostTerms>& t) {
   pybind11::dict d;
-  d["dis"] = t[opt::kDistance];
-  d["smo"] = t[opt::kSmoothness];
-  d["str"] = t[opt::kStretching];
-  d["pos"] = t[opt::kPositional];
+  for (int q = 0; q < opt::kNumCostTerms; ++q) d[opt::kCostTerms[q].name] = t[q];
   return d;
 }
 

@@ -2,82 +2,115 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <string>
 
-#include "opt/costs/distance.hpp"
 #include "opt/costs/gather.hpp"
-#include "opt/costs/positional.hpp"
-#include "opt/costs/smoothness.hpp"
-#include "opt/costs/stretching.hpp"
 
 namespace seamfit::opt {
+
+namespace {
+
+void set_elements(CostElements& el, int arity, const int* ids, int count, int n) {
+  el.count = count;
+  el.arity = arity;
+  el.ids.assign(ids, ids + size_t(arity) * count);
+  el.gather.build(count ? el.ids.data() : nullptr, count, arity, n);
+}
+
+}  // namespace
 
 CostSet::CostSet(int n_vertices, const std::vector<Tri>& tris, const Vec2* pbar, const Vec3* xbar)
     : n_(n_vertices) {
   for (const Tri& t : tris)
     for (int v : t)
       if (v < 0 || v >= n_) throw std::invalid_argument("triangle index out of range");
-  edges_ = unique_edges(tris);
-  rbar_.resize(edges_.size());
-  for (size_t e = 0; e < edges_.size(); ++e) {
-    const int i = edges_[e][0], j = edges_[e][1];
-    const double lp = norm(pbar[i] - pbar[j]);
-    if (!(lp > 0)) throw std::invalid_argument("zero-length edge in the base pattern");
-    rbar_[e] = norm(xbar[i] - xbar[j]) / lp;
-  }
-  hinges_ = interior_hinges(tris);
+  std::vector<int> vertices(static_cast<size_t>(n_));
+  for (int i = 0; i < n_; ++i) vertices[i] = i;
+  set_elements(elements_[kVertices], 1, vertices.data(), n_, n_);
+  const std::vector<Edge> edges = unique_edges(tris);
+  for (const Edge& e : edges)
+    if (!(norm(pbar[e[0]] - pbar[e[1]]) > 0)) throw std::invalid_argument("zero-length edge in the base pattern");
+  set_elements(elements_[kEdges], 2, edges.empty() ? nullptr : &edges[0][0], int(edges.size()), n_);
+  std::vector<Hinge> hinges = interior_hinges(tris);
   // Sliver hinges carry no smoothness cost (as they carry no bending in the simulator).
-  hinges_.erase(std::remove_if(hinges_.begin(), hinges_.end(),
-                               [&](const Hinge& h) { return !hinge_well_shaped(h, pbar); }),
-                hinges_.end());
-  hinge_w_.resize(hinges_.size());
-  cbar_.resize(hinges_.size());
-  sbar_.resize(hinges_.size());
-  for (size_t h = 0; h < hinges_.size(); ++h) {
-    hinge_w_[h] = hinge_kernel(hinges_[h], pbar);
-    const Vec3 xb[4] = {xbar[hinges_[h][0]], xbar[hinges_[h][1]], xbar[hinges_[h][2]], xbar[hinges_[h][3]]};
-    cbar_[h] = norm(hinge_apply(hinge_w_[h].data(), xb));
-    sbar_[h] = hinge_side(hinge_w_[h].data(), xb);
-  }
-  edge_gather_.build(&edges_[0][0], int(edges_.size()), 2, n_);
-  if (!hinges_.empty()) hinge_gather_.build(&hinges_[0][0], int(hinges_.size()), 4, n_);
-  else hinge_gather_.build(nullptr, 0, 4, n_);
+  hinges.erase(std::remove_if(hinges.begin(), hinges.end(), [&](const Hinge& h) { return !hinge_well_shaped(h, pbar); }),
+               hinges.end());
+  set_elements(elements_[kHinges], 4, hinges.empty() ? nullptr : &hinges[0][0], int(hinges.size()), n_);
+  // The constants each term computes from the base garment and pattern.
+  const BaseGarment base{pbar, xbar};
+  for (int q = 0; q < kNumCostTerms; ++q)
+    visit_cost_term(CostTerm(q), [&](auto term) {
+      using T = decltype(term);
+      if constexpr (T::kInput == nullptr) {
+        const CostElements& el = elements_[T::kOn];
+        std::vector<double>& c = constants_[q];
+        c.resize(size_t(T::kWidth) * el.count);
+        for (int e = 0; e < el.count; ++e) T::base(base, &el.ids[size_t(el.arity) * e], &c[size_t(T::kWidth) * e]);
+        ready_[q] = true;
+      }
+    });
 }
 
-void CostSet::set_distance(const SdfGridView& sdf, const double* phibar) {
+const CostElements& CostSet::elements(CostTerm t) const {
+  Elements kind = kVertices;
+  visit_cost_term(t, [&](auto term) { kind = decltype(term)::kOn; });
+  return elements_[kind];
+}
+
+int CostSet::width(CostTerm t) const {
+  int w = 0;
+  visit_cost_term(t, [&](auto term) { w = decltype(term)::kWidth; });
+  return w;
+}
+
+void CostSet::set_target_sdf(const SdfGridView& sdf) {
   if (!sdf.values || sdf.nx < 2 || sdf.ny < 2 || sdf.nz < 2 || !(sdf.spacing > 0))
     throw std::invalid_argument("invalid signed distance grid");
   sdf_ = sdf;
-  phibar_.assign(phibar, phibar + n_);
   has_sdf_ = true;
 }
 
-void CostSet::set_positional(const Vec3* xtilde, const double* u) {
-  xtilde_.assign(xtilde, xtilde + n_);
-  u_.assign(u, u + n_);
-  has_pos_ = true;
+void CostSet::set_inputs(CostTerm t, const double* values) {
+  if (t < 0 || t >= kNumCostTerms) throw std::invalid_argument("no such cost term");
+  bool from_base = false;
+  visit_cost_term(t, [&](auto term) { from_base = decltype(term)::kInput == nullptr; });
+  if (from_base)
+    throw std::invalid_argument(std::string("the ") + kCostTerms[t].name + " cost computes its constants itself");
+  const size_t size = size_t(width(t)) * elements(t).count;
+  constants_[t].assign(values, values + size);
+  ready_[t] = true;
+}
+
+void check_cost_inputs(const CostStrengths& strengths, const bool* ready, bool has_sdf) {
+  for (int q = 0; q < kNumCostTerms; ++q) {
+    if (strengths[q] == 0) continue;
+    visit_cost_term(CostTerm(q), [&](auto term) {
+      using T = decltype(term);
+      const char* missing = !ready[q] ? T::kInput : (T::kField && !has_sdf ? "target SDF" : nullptr);
+      if (missing)
+        throw std::logic_error(std::string(kCostTerms[q].label) + " cost has a strength but no " + missing);
+    });
+  }
 }
 
 CostSetView CostSet::view() const {
   CostSetView v;
   v.n = n_;
-  v.n_edges = int(edges_.size());
-  v.n_hinges = int(hinges_.size());
-  v.edges = edges_.empty() ? nullptr : &edges_[0][0];
-  v.rbar = rbar_.data();
-  v.hinges = hinges_.empty() ? nullptr : &hinges_[0][0];
-  v.hinge_w = hinge_w_.empty() ? nullptr : hinge_w_[0].data();
-  v.cbar = cbar_.data();
-  v.sbar = sbar_.data();
-  v.edge_offsets = edge_gather_.offsets.data();
-  v.edge_slots = edge_gather_.slots.data();
-  v.hinge_offsets = hinge_gather_.offsets.data();
-  v.hinge_slots = hinge_gather_.slots.data();
+  for (int k = 0; k < kNumElementKinds; ++k) {
+    const CostElements& el = elements_[k];
+    auto& ev = v.elements[k];
+    ev.count = el.count;
+    ev.arity = el.arity;
+    ev.ids = el.ids.empty() ? nullptr : el.ids.data();
+    ev.offsets = el.gather.offsets.data();
+    ev.slots = el.gather.slots.data();
+  }
+  for (int q = 0; q < kNumCostTerms; ++q) {
+    v.constants[q] = constants_[q].empty() ? nullptr : constants_[q].data();
+    v.ready[q] = ready_[q];
+  }
   v.has_sdf = has_sdf_;
-  v.has_pos = has_pos_;
   v.sdf = sdf_;
-  v.phibar = phibar_.data();
-  v.xtilde = xtilde_.data();
-  v.u = u_.data();
   return v;
 }
 
@@ -91,82 +124,52 @@ static double serial_sum(const std::vector<double>& v, size_t n) {
   return s;
 }
 
-double CostSet::evaluate(const Vec3* x, const Vec2* p, Vec3* gx, Vec2* gp,
-                         std::array<double, kNumCostTerms>* terms) {
+// One term: element values and gradient slots, then each vertex adds its slots to its
+// gradient (slot order, the same on the GPU). Returns the term's value.
+template <class T>
+double CostSet::accumulate(CostTerm t, const CostInputs& in, double k, Vec3* gx, Vec2* gp) {
+  const CostElements& el = elements_[T::kOn];
+  const int ne = el.count, a = el.arity, n = n_;
+  const int* ids = el.ids.data();
+  const double* c = constants_[t].data();
+  val_.resize(ne);
+  slot_x_.resize(size_t(a) * ne);
+  if (T::kPattern) slot_p_.resize(size_t(a) * ne);
+  Vec3* sx = slot_x_.data();
+  Vec2* sp = T::kPattern ? slot_p_.data() : nullptr;
+#pragma omp parallel for schedule(static) if (ne >= kParallelMin)
+  for (int e = 0; e < ne; ++e)
+    val_[e] = T::element(in, ids + size_t(a) * e, c + size_t(T::kWidth) * e, k, sx + size_t(a) * e,
+                         sp ? sp + size_t(a) * e : nullptr);
+  const int *off = el.gather.offsets.data(), *slots = el.gather.slots.data();
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+  for (int v = 0; v < n; ++v) {
+    gather_add(v, off, slots, sx, gx[v]);
+    if (T::kPattern) gather_add(v, off, slots, sp, gp[v]);
+  }
+  return serial_sum(val_, ne);
+}
+
+double CostSet::evaluate(const Vec3* x, const Vec2* p, Vec3* gx, Vec2* gp, CostValues* terms) {
+  check_inputs();
   const int n = n_;
-  std::array<double, kNumCostTerms> t{};
   for (int i = 0; i < n; ++i) gx[i] = make_vec3(0, 0, 0);
   for (int i = 0; i < n; ++i) gp[i] = make_vec2(0, 0);
-
-  if (strengths_.dis != 0) {
-    if (!has_sdf_) throw std::logic_error("distance cost has a strength but no target SDF");
-    ++evals_[kDistance];
-    val_.resize(n);
-    const double k = strengths_.dis;
-#pragma omp parallel for schedule(static) if (n >= kParallelMin)
-    for (int i = 0; i < n; ++i) {
-      Vec3 g;
-      val_[i] = distance_cost(sdf_, x[i], phibar_[i], k, &g);
-      gx[i] += g;
-    }
-    t[kDistance] = serial_sum(val_, n);
+  CostInputs in;
+  in.x = x;
+  in.p = p;
+  in.sdf = sdf_;
+  CostValues t{};
+  for (const CostTerm q : kCostGradientOrder) {
+    const double k = strengths_[q];
+    if (k == 0) continue;
+    ++evals_[q];
+    visit_cost_term(q, [&](auto term) { t[q] = accumulate<decltype(term)>(q, in, k, gx, gp); });
   }
-
-  if (strengths_.pos != 0) {
-    if (!has_pos_) throw std::logic_error("positional cost has a strength but no transferred garment");
-    ++evals_[kPositional];
-    val_.resize(n);
-    const double k = strengths_.pos;
-#pragma omp parallel for schedule(static) if (n >= kParallelMin)
-    for (int i = 0; i < n; ++i) {
-      Vec3 g;
-      val_[i] = positional_cost(x[i], xtilde_[i], k * u_[i], &g);
-      gx[i] += g;
-    }
-    t[kPositional] = serial_sum(val_, n);
-  }
-
-  if (strengths_.str != 0) {
-    ++evals_[kStretching];
-    const int ne = int(edges_.size());
-    val_.resize(ne);
-    slot_x_.resize(2 * size_t(ne));
-    slot_p_.resize(2 * size_t(ne));
-    const double k = strengths_.str;
-#pragma omp parallel for schedule(static) if (ne >= kParallelMin)
-    for (int e = 0; e < ne; ++e) {
-      const int i = edges_[e][0], j = edges_[e][1];
-      val_[e] = stretching_cost(x[i], x[j], p[i], p[j], rbar_[e], k, &slot_x_[2 * e], &slot_x_[2 * e + 1],
-                                &slot_p_[2 * e], &slot_p_[2 * e + 1]);
-    }
-#pragma omp parallel for schedule(static) if (n >= kParallelMin)
-    for (int v = 0; v < n; ++v) {
-      gather_add(v, edge_gather_.offsets.data(), edge_gather_.slots.data(), slot_x_.data(), gx[v]);
-      gather_add(v, edge_gather_.offsets.data(), edge_gather_.slots.data(), slot_p_.data(), gp[v]);
-    }
-    t[kStretching] = serial_sum(val_, ne);
-  }
-
-  if (strengths_.smo != 0) {
-    ++evals_[kSmoothness];
-    const int nh = int(hinges_.size());
-    val_.resize(nh);
-    slot_x_.resize(4 * size_t(nh));
-    const double k = strengths_.smo;
-#pragma omp parallel for schedule(static) if (nh >= kParallelMin)
-    for (int h = 0; h < nh; ++h) {
-      const Hinge& hg = hinges_[h];
-      const Vec3 xs[4] = {x[hg[0]], x[hg[1]], x[hg[2]], x[hg[3]]};
-      val_[h] = smoothness_cost(xs, hinge_w_[h].data(), cbar_[h], sbar_[h], k, &slot_x_[4 * size_t(h)]);
-    }
-#pragma omp parallel for schedule(static) if (n >= kParallelMin)
-    for (int v = 0; v < n; ++v)
-      gather_add(v, hinge_gather_.offsets.data(), hinge_gather_.slots.data(), slot_x_.data(), gx[v]);
-    t[kSmoothness] = serial_sum(val_, nh);
-  }
-
   if (terms) *terms = t;
-  return t[kDistance] + t[kSmoothness] + t[kStretching] + t[kPositional];
+  double total = t[0];
+  for (int q = 1; q < kNumCostTerms; ++q) total += t[q];
+  return total;
 }
 
 }  // namespace seamfit::opt

@@ -1,43 +1,50 @@
-// The fitting costs of Section 6 on the CPU: distance (Eq. 11), smoothness (Eq. 12-13),
-// stretching (Eq. 14) and positional (Eq. 16). Per-element math lives in
-// opt/costs/*.hpp (shared with the CUDA path); this class owns the constant data
-// derived from the base garment and pattern, runs the element loops with OpenMP and
-// gathers gradients per vertex. A term whose strength is zero is never evaluated and
-// needs none of its inputs.
+// The fitting costs of Section 6 on the CPU: every term registered in opt/cost_terms.hpp
+// (distance Eq. 11, smoothness Eq. 12-13, stretching Eq. 14, positional Eq. 16). Per-element
+// math lives in opt/costs/*.hpp (shared with the CUDA path); this class owns the elements
+// and constants derived from the base garment and pattern, runs the element loops with
+// OpenMP and gathers gradients per vertex. A term whose strength is zero is never
+// evaluated and needs none of its inputs.
 #pragma once
 #include <array>
 #include <vector>
 
 #include "body/sdf_grid.hpp"
 #include "common/vec3.hpp"
+#include "opt/cost_terms.hpp"
 #include "opt/topology.hpp"
 #include "opt/vec2.hpp"
 
 namespace seamfit::opt {
 
-enum CostTerm { kDistance = 0, kSmoothness = 1, kStretching = 2, kPositional = 3, kNumCostTerms = 4 };
+// Per registered term, in registry order.
+using CostStrengths = std::array<double, kNumCostTerms>;
+using CostValues = std::array<double, kNumCostTerms>;
 
-struct CostStrengths {
-  double dis = 0, smo = 0, str = 0, pos = 0;
+// The elements of one kind: count x arity vertex ids and their vertex gather table.
+struct CostElements {
+  int count = 0, arity = 1;
+  std::vector<int> ids;
+  Gather gather;
 };
 
 // Read-only view of a CostSet's constant data, for a backend that mirrors it (the
 // CUDA cost set copies it to the device).
 struct CostSetView {
-  int n = 0, n_edges = 0, n_hinges = 0;
-  const int* edges = nullptr;            // 2 per edge
-  const double* rbar = nullptr;          // per edge
-  const int* hinges = nullptr;           // 4 per hinge
-  const double* hinge_w = nullptr;       // 4 per hinge
-  const double *cbar = nullptr, *sbar = nullptr;   // per hinge
-  const int *edge_offsets = nullptr, *edge_slots = nullptr;    // gather: n + 1, 2E
-  const int *hinge_offsets = nullptr, *hinge_slots = nullptr;  // gather: n + 1, 4H
-  bool has_sdf = false, has_pos = false;
-  SdfGridView sdf;                       // host memory
-  const double* phibar = nullptr;        // n (with the field)
-  const Vec3* xtilde = nullptr;          // n (positional)
-  const double* u = nullptr;             // n (positional)
+  int n = 0;
+  struct ElementsView {
+    int count = 0, arity = 1;
+    const int* ids = nullptr;                              // count x arity
+    const int *offsets = nullptr, *slots = nullptr;        // gather: n + 1, count x arity
+  } elements[kNumElementKinds];
+  const double* constants[kNumCostTerms] = {};             // count x the term's width
+  bool ready[kNumCostTerms] = {};                          // constants present
+  bool has_sdf = false;
+  SdfGridView sdf;                                         // host memory
 };
+
+// Throws std::logic_error naming the first term with a strength whose inputs are missing
+// (ready: its constants are present; has_sdf: the target SDF is).
+void check_cost_inputs(const CostStrengths& strengths, const bool* ready, bool has_sdf);
 
 class CostSet {
  public:
@@ -46,21 +53,23 @@ class CostSet {
 
   void set_strengths(const CostStrengths& s) { strengths_ = s; }
   const CostStrengths& strengths() const { return strengths_; }
-  // Target body SDF (non-owning view: the caller keeps the values alive) and the base
-  // garment's distances phibar(xbar_i) to the base body.
-  void set_distance(const SdfGridView& sdf, const double* phibar);
-  // Transferred garment xtilde (Eq. 15) and per-vertex weights u_i.
-  void set_positional(const Vec3* xtilde, const double* u);
+  // Target body SDF (non-owning view: the caller keeps the values alive), for the terms
+  // with kField.
+  void set_target_sdf(const SdfGridView& sdf);
+  // The constants of a term that takes them from the caller (its kInput): its element
+  // count x its width doubles, copied.
+  void set_inputs(CostTerm t, const double* values);
 
   // Total value; per-term values into terms; gradients (n, 3) and (n, 2) overwritten.
-  double evaluate(const Vec3* x, const Vec2* p, Vec3* grad_x, Vec2* grad_p,
-                  std::array<double, kNumCostTerms>* terms);
+  double evaluate(const Vec3* x, const Vec2* p, Vec3* grad_x, Vec2* grad_p, CostValues* terms);
+  // Throws std::logic_error when a term with a strength lacks its inputs.
+  void check_inputs() const { check_cost_inputs(strengths_, ready_.data(), has_sdf_); }
 
   int n_vertices() const { return n_; }
-  const std::vector<Edge>& edges() const { return edges_; }
-  const std::vector<Hinge>& hinges() const { return hinges_; }
-  const std::vector<std::array<double, 4>>& hinge_weights() const { return hinge_w_; }
-  const std::vector<double>& stretch_ratio_bar() const { return rbar_; }
+  const CostElements& elements(Elements kind) const { return elements_[kind]; }
+  const CostElements& elements(CostTerm t) const;
+  const std::vector<double>& constants(CostTerm t) const { return constants_[t]; }
+  int width(CostTerm t) const;
   // How many times each term has been evaluated (zero-strength terms stay at zero).
   const std::array<long long, kNumCostTerms>& evaluations() const { return evals_; }
   // Counted by a backend that evaluates this set elsewhere.
@@ -68,18 +77,16 @@ class CostSet {
   CostSetView view() const;
 
  private:
+  template <class T>
+  double accumulate(CostTerm t, const CostInputs& in, double k, Vec3* gx, Vec2* gp);
+
   int n_;
-  CostStrengths strengths_;
-  std::vector<Edge> edges_;
-  std::vector<double> rbar_;
-  std::vector<Hinge> hinges_;
-  std::vector<std::array<double, 4>> hinge_w_;
-  std::vector<double> cbar_, sbar_;
-  Gather edge_gather_, hinge_gather_;
-  bool has_sdf_ = false, has_pos_ = false;
+  CostStrengths strengths_{};
+  std::array<CostElements, kNumElementKinds> elements_;
+  std::array<std::vector<double>, kNumCostTerms> constants_;
+  std::array<bool, kNumCostTerms> ready_{};
+  bool has_sdf_ = false;
   SdfGridView sdf_;
-  std::vector<double> phibar_, u_;
-  std::vector<Vec3> xtilde_;
   std::array<long long, kNumCostTerms> evals_{};
   // Scratch: per-element values and gradient slots.
   std::vector<double> val_;

@@ -4,6 +4,7 @@
 #pragma once
 #include "body/sdf_grid.hpp"
 #include "common/vec3.hpp"
+#include "opt/costs/term.hpp"
 
 namespace seamfit {
 
@@ -16,3 +17,18 @@ SF_HD double distance_cost(const SdfGridView& sdf, Vec3 x, double phibar, double
 }
 
 }  // namespace seamfit
+
+namespace seamfit::opt::costs {
+
+// C^dis over the vertices; the constant is phibar_i, supplied with the target SDF.
+struct Distance {
+  static constexpr Elements kOn = kVertices;
+  static constexpr int kWidth = 1;
+  static constexpr const char* kInput = "target SDF";
+  static constexpr bool kField = true, kPattern = false;
+  static SF_HD double element(const CostInputs& in, const int* v, const double* c, double k, Vec3* gx, Vec2*) {
+    return distance_cost(in.sdf, in.x[v[0]], c[0], k, gx);
+  }
+};
+
+}  // namespace seamfit::opt::costs

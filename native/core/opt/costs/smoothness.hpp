@@ -8,6 +8,8 @@
 // The base quantities enter as cbar = |L_e xbar| and sbar = sign(L_e xbar . nbar_e).
 #pragma once
 #include "common/vec3.hpp"
+#include "opt/costs/term.hpp"
+#include "opt/topology.hpp"
 
 namespace seamfit {
 
@@ -47,3 +49,26 @@ SF_HD double smoothness_cost(const Vec3 x[4], const double w[4], double cbar, do
 }
 
 }  // namespace seamfit
+
+namespace seamfit::opt::costs {
+
+// C^smo over the interior hinges; the constants are the kernel weights w (4), cbar and sbar.
+struct Smoothness {
+  static constexpr Elements kOn = kHinges;
+  static constexpr int kWidth = 6;
+  static constexpr const char* kInput = nullptr;
+  static constexpr bool kField = false, kPattern = false;
+  static void base(const BaseGarment& b, const int* v, double* c) {
+    const std::array<double, 4> w = hinge_kernel({v[0], v[1], v[2], v[3]}, b.pbar);
+    const Vec3 xb[4] = {b.xbar[v[0]], b.xbar[v[1]], b.xbar[v[2]], b.xbar[v[3]]};
+    for (int a = 0; a < 4; ++a) c[a] = w[a];
+    c[4] = norm(hinge_apply(w.data(), xb));
+    c[5] = hinge_side(w.data(), xb);
+  }
+  static SF_HD double element(const CostInputs& in, const int* v, const double* c, double k, Vec3* gx, Vec2*) {
+    const Vec3 xs[4] = {in.x[v[0]], in.x[v[1]], in.x[v[2]], in.x[v[3]]};
+    return smoothness_cost(xs, c, c[4], c[5], k, gx);
+  }
+};
+
+}  // namespace seamfit::opt::costs

@@ -4,6 +4,7 @@
 // Depends on the garment x (3D) and on the pattern p (2D), both in metres.
 #pragma once
 #include "common/vec3.hpp"
+#include "opt/costs/term.hpp"
 #include "opt/vec2.hpp"
 
 namespace seamfit {
@@ -26,3 +27,21 @@ SF_HD double stretching_cost(Vec3 xi, Vec3 xj, Vec2 pi, Vec2 pj, double rbar, do
 }
 
 }  // namespace seamfit
+
+namespace seamfit::opt::costs {
+
+// C^str over the edges; the constant is rbar_e.
+struct Stretching {
+  static constexpr Elements kOn = kEdges;
+  static constexpr int kWidth = 1;
+  static constexpr const char* kInput = nullptr;
+  static constexpr bool kField = false, kPattern = true;
+  static void base(const BaseGarment& b, const int* v, double* c) {
+    c[0] = norm(b.xbar[v[0]] - b.xbar[v[1]]) / norm(b.pbar[v[0]] - b.pbar[v[1]]);
+  }
+  static SF_HD double element(const CostInputs& in, const int* v, const double* c, double k, Vec3* gx, Vec2* gp) {
+    return stretching_cost(in.x[v[0]], in.x[v[1]], in.p[v[0]], in.p[v[1]], c[0], k, &gx[0], &gx[1], &gp[0], &gp[1]);
+  }
+};
+
+}  // namespace seamfit::opt::costs

@@ -1,7 +1,7 @@
 """The fitting costs of paper Section 6 (Eq. 11-16) over a garment x and a pattern p."""
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import fields, make_dataclass
 
 import numpy as np
 
@@ -18,17 +18,27 @@ POSITIONAL_WEIGHT_INTERIOR = 1.0
 POSITIONAL_WEIGHT_BOUNDARY = 4.0
 
 
-@dataclass(frozen=True)
-class Strengths:
-    """Strength coefficients delta of every term (see ``seamfit.opt.presets``)."""
-    fix: float = 0.0
-    cur: float = 0.0
-    dis: float = 0.0
-    smo: float = 0.0
-    str: float = 0.0
-    pos: float = 0.0
-    seam: float = 0.0   # R^seam, seamfit.opt.seam (not in the paper)
+# The fitting cost terms C as the native core registers them (native/core/opt/cost_terms.hpp):
+# (name, label, help) in the paper's order. Their strengths, values and evaluation counts
+# go by these names.
+COST_TERMS = tuple(tuple(t) for t in core().COST_TERMS)
+COST_TERM_NAMES = tuple(t[0] for t in COST_TERMS)
 
+# The regularizer terms R (Section 5.1, seamfit.opt.regularizers; R^seam, seamfit.opt.seam,
+# is not in the paper): (name, label, help), R^fix and R^cur before the costs, R^seam after.
+_REGULARIZERS = (("fix", "Fix", "Keeps boundary vertices near the base pattern"),
+                 ("cur", "Curvature", "Keeps the shape of boundary curves"))
+_SEAM = (("seam", "Seam length", "Keeps the two sides of every seam equally long"),)
+
+# What each term keeps, by strength name: (label, help), for the command line and the
+# add-on's Costs panel; in the paper's order.
+STRENGTH_HELP = {name: (label, text) for name, label, text in (*_REGULARIZERS, *COST_TERMS, *_SEAM)}
+
+# The strengths' names in the paper's order, for the command line and the add-on.
+STRENGTH_NAMES = tuple(STRENGTH_HELP)
+
+
+class _StrengthsBase:
     def __post_init__(self):
         for f in fields(self):
             v = getattr(self, f.name)
@@ -46,19 +56,12 @@ class Strengths:
         raise TypeError(f"cannot read strengths from {type(s).__name__}")
 
 
-# The strengths' names in the paper's order, for the command line and the add-on.
-STRENGTH_NAMES = tuple(f.name for f in fields(Strengths))
-
-# What each term keeps, by strength name: (label, help), for the add-on's Costs panel.
-STRENGTH_HELP = {
-    "fix": ("Fix", "Keeps boundary vertices near the base pattern"),
-    "cur": ("Curvature", "Keeps the shape of boundary curves"),
-    "dis": ("Distance", "Keeps the looseness of the garment per vertex"),
-    "smo": ("Smoothness", "Keeps folds and smoothness of the surface"),
-    "str": ("Stretching", "Keeps the stretch ratio of every edge"),
-    "pos": ("Positional", "Keeps every garment point where it sits on the body"),
-    "seam": ("Seam length", "Keeps the two sides of every seam equally long"),
-}
+# One field per name of STRENGTH_NAMES, each 0 unless given: a term that a preset does not
+# name is off in it.
+Strengths = make_dataclass(
+    "Strengths", [(name, float, 0.0) for name in STRENGTH_NAMES], bases=(_StrengthsBase,), frozen=True,
+    namespace={"__module__": __name__, "__doc__": "Strength coefficients delta of every term, by name "
+               "(STRENGTH_NAMES; see ``seamfit.opt.presets``)."})
 
 
 def positional_weights(mesh) -> np.ndarray:
@@ -80,7 +83,7 @@ def sample_sdf(sdf, points) -> tuple[np.ndarray, np.ndarray]:
 
 
 class CostSet:
-    """C^dis + C^smo + C^str + C^pos for a garment sewn from ``mesh``.
+    """The fitting costs C, the sum of the COST_TERMS, for a garment sewn from ``mesh``.
 
     xbar: the base garment (N, 3) m, simulated on the base body. Only the inputs of
     terms with nonzero strength are needed: ``target_sdf`` and ``phibar`` (or
@@ -98,7 +101,7 @@ class CostSet:
         self.xbar = xbar
         self._native = core().CostSet(a.triangles, a.pbar, xbar)
         s = self.strengths
-        self._native.set_strengths(s.dis, s.smo, s.str, s.pos)
+        self._native.set_strengths({name: getattr(s, name) for name in COST_TERM_NAMES})
         if s.dis != 0:
             if target_sdf is None:
                 raise SolveError("the distance cost needs the target body's SDF (target_sdf)")
@@ -106,13 +109,13 @@ class CostSet:
                 if base_sdf is None:
                     raise SolveError("the distance cost needs phibar or the base body's SDF (base_sdf)")
                 phibar = sample_sdf(base_sdf, xbar)[0] if hasattr(base_sdf, "values") else base_sdf.sample(xbar)[0]
-            values, origin, spacing = _grid(target_sdf)
-            self._native.set_distance(values, origin, spacing, np.asarray(phibar, dtype=float).reshape(-1))
+            self._native.set_target_sdf(*_grid(target_sdf))
+            self._native.set_inputs("dis", np.asarray(phibar, dtype=float).reshape(-1))
         if s.pos != 0:
             if xtilde is None:
                 raise SolveError("the positional cost needs the transferred garment (xtilde)")
             u = positional_weights(mesh) if positional_weight is None else np.asarray(positional_weight, float)
-            self._native.set_positional(np.ascontiguousarray(xtilde, dtype=float), u)
+            self._native.set_inputs("pos", np.column_stack([np.asarray(xtilde, dtype=float), u]))
         self._device_out = Buffers()  # DeviceArray gradients
 
     _gpu = None  # CudaCostSet mirror when evaluating on the GPU
@@ -131,7 +134,7 @@ class CostSet:
         return "cpu" if self._gpu is None else "cuda"
 
     def evaluate(self, x, p):
-        """-> (value, {"dis", "smo", "str", "pos"}, grad_x (N, 3), grad_p (N, 2)). With x and p
+        """-> (value, {name: value} per COST_TERM_NAMES, grad_x (N, 3), grad_p (N, 2)). With x and p
         DeviceArrays the gradients are DeviceArrays too (seamfit.device_arrays)."""
         if is_device(x):
             out = self._device_out
@@ -160,4 +163,5 @@ class CostSet:
 
     @property
     def hinge_weights(self) -> np.ndarray:
-        return np.asarray(self._native.hinge_weights, dtype=float).reshape(-1, 4)
+        """The smoothness kernel's weights of each hinge's 4 vertices."""
+        return np.asarray(self._native.constants("smo"), dtype=float)[:, :4]

@@ -17,6 +17,9 @@ second differences, so every preset gives it R^cur's 1e6 / m^2: a seam side that
 1 mm from its partner costs about what a boundary that bends 1 mm out of its curve does.
 That holds both stitch sides within ~0.2 mm on the coarse test grading and within the
 2 mm output check on the benchmark (docs/grading.md, "Seam length").
+
+A term a preset does not name has strength 0 in it (Strengths' default): a new cost term is
+off in every preset until it has been measured on the shared cases.
 """
 from __future__ import annotations
 

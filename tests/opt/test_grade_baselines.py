@@ -9,6 +9,7 @@ import pytest
 from seamfit.body import load_body
 from seamfit.cli import main
 from seamfit.errors import SolveError
+from seamfit.opt.costs import STRENGTH_NAMES
 from seamfit.opt.grade import GradeSettings, grade
 from seamfit.pattern import load_pattern, save_pattern
 from seamfit.pattern.validate import validate_pattern
@@ -66,8 +67,9 @@ def _assert_scored(rep, method):
     for key in ("objective_base_pattern", "objective_initial", "objective_final", "terms_final",
                 "mismatch_mm", "seconds_total", "max_displacement_mm", "checkpoints", "drape"):
         assert key in rep and _finite(rep[key]), key
-    # scored with the preset's whole objective, whatever the method searched
-    assert rep["strengths"] == STRENGTHS
+    # scored with the preset's whole objective, whatever the method searched (a term it
+    # does not name at 0)
+    assert rep["strengths"] == {**dict.fromkeys(STRENGTH_NAMES, 0.0), **STRENGTHS}
     assert rep["terms_final"]["dis"] > 0 and rep["terms_final"]["str"] > 0
     # both baselines start where Algorithm 1 starts: the unchanged pattern with start "base"
     # (the paper's), else the level-scaled one, which already fits better

@@ -24,9 +24,7 @@ CostSet::CostSet(int n_vertices, const std::vector<Tri>& tris, const Vec2* pbar,
   for (const Tri& t : tris)
     for (int v : t)
       if (v < 0 || v >= n_) throw std::invalid_argument("triangle index out of range");
-  std::vector<int> vertices(static_cast<size_t>(n_));
-  for (int i = 0; i < n_; ++i) vertices[i] = i;
-  set_elements(elements_[kVertices], 1, vertices.data(), n_, n_);
+  elements_[kVertices].count = n_;  // element i is vertex i: no ids, no gather
   const std::vector<Edge> edges = unique_edges(tris);
   for (const Edge& e : edges)
     if (!(norm(pbar[e[0]] - pbar[e[1]]) > 0)) throw std::invalid_argument("zero-length edge in the base pattern");
@@ -45,7 +43,8 @@ CostSet::CostSet(int n_vertices, const std::vector<Tri>& tris, const Vec2* pbar,
         const CostElements& el = elements_[T::kOn];
         std::vector<double>& c = constants_[q];
         c.resize(size_t(T::kWidth) * el.count);
-        for (int e = 0; e < el.count; ++e) T::base(base, &el.ids[size_t(el.arity) * e], &c[size_t(T::kWidth) * e]);
+        for (int e = 0; e < el.count; ++e)
+          T::base(base, T::kOn == kVertices ? &e : &el.ids[size_t(el.arity) * e], &c[size_t(T::kWidth) * e]);
         ready_[q] = true;
       }
     });
@@ -124,8 +123,9 @@ static double serial_sum(const std::vector<double>& v, size_t n) {
   return s;
 }
 
-// One term: element values and gradient slots, then each vertex adds its slots to its
-// gradient (slot order, the same on the GPU). Returns the term's value.
+// One term's value; its gradient added to gx and gp. A term over the vertices adds each
+// vertex's gradient straight in; another writes its elements' gradient slots, which each
+// vertex then adds in slot order. The GPU adds the same values in the same order.
 template <class T>
 double CostSet::accumulate(CostTerm t, const CostInputs& in, double k, Vec3* gx, Vec2* gp) {
   const CostElements& el = elements_[T::kOn];
@@ -133,19 +133,30 @@ double CostSet::accumulate(CostTerm t, const CostInputs& in, double k, Vec3* gx,
   const int* ids = el.ids.data();
   const double* c = constants_[t].data();
   val_.resize(ne);
-  slot_x_.resize(size_t(a) * ne);
-  if (T::kPattern) slot_p_.resize(size_t(a) * ne);
-  Vec3* sx = slot_x_.data();
-  Vec2* sp = T::kPattern ? slot_p_.data() : nullptr;
-#pragma omp parallel for schedule(static) if (ne >= kParallelMin)
-  for (int e = 0; e < ne; ++e)
-    val_[e] = T::element(in, ids + size_t(a) * e, c + size_t(T::kWidth) * e, k, sx + size_t(a) * e,
-                         sp ? sp + size_t(a) * e : nullptr);
-  const int *off = el.gather.offsets.data(), *slots = el.gather.slots.data();
+  if constexpr (T::kOn == kVertices) {
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
-  for (int v = 0; v < n; ++v) {
-    gather_add(v, off, slots, sx, gx[v]);
-    if (T::kPattern) gather_add(v, off, slots, sp, gp[v]);
+    for (int i = 0; i < n; ++i) {
+      Vec3 g;
+      Vec2 q = make_vec2(0, 0);
+      val_[i] = T::element(in, &i, c + size_t(T::kWidth) * i, k, &g, &q);
+      gx[i] += g;
+      if (T::kPattern) gp[i] += q;
+    }
+  } else {
+    slot_x_.resize(size_t(a) * ne);
+    if (T::kPattern) slot_p_.resize(size_t(a) * ne);
+    Vec3* sx = slot_x_.data();
+    Vec2* sp = T::kPattern ? slot_p_.data() : nullptr;
+#pragma omp parallel for schedule(static) if (ne >= kParallelMin)
+    for (int e = 0; e < ne; ++e)
+      val_[e] = T::element(in, ids + size_t(a) * e, c + size_t(T::kWidth) * e, k, sx + size_t(a) * e,
+                           sp ? sp + size_t(a) * e : nullptr);
+    const int *off = el.gather.offsets.data(), *slots = el.gather.slots.data();
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+    for (int v = 0; v < n; ++v) {
+      gather_add(v, off, slots, sx, gx[v]);
+      if (T::kPattern) gather_add(v, off, slots, sp, gp[v]);
+    }
   }
   return serial_sum(val_, ne);
 }

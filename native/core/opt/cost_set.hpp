@@ -1,9 +1,8 @@
-// The fitting costs of Section 6 on the CPU: every term registered in opt/cost_terms.hpp
-// (distance Eq. 11, smoothness Eq. 12-13, stretching Eq. 14, positional Eq. 16). Per-element
-// math lives in opt/costs/*.hpp (shared with the CUDA path); this class owns the elements
-// and constants derived from the base garment and pattern, runs the element loops with
-// OpenMP and gathers gradients per vertex. A term whose strength is zero is never
-// evaluated and needs none of its inputs.
+// The fitting costs of Section 6 (Eq. 11-16) on the CPU: every term registered in
+// opt/cost_terms.hpp. Per-element math lives in opt/costs/*.hpp (shared with the CUDA
+// path); this class owns the elements and constants derived from the base garment and
+// pattern, runs the element loops with OpenMP and gathers gradients per vertex. A term
+// whose strength is zero is never evaluated and needs none of its inputs.
 #pragma once
 #include <array>
 #include <vector>
@@ -20,7 +19,8 @@ namespace seamfit::opt {
 using CostStrengths = std::array<double, kNumCostTerms>;
 using CostValues = std::array<double, kNumCostTerms>;
 
-// The elements of one kind: count x arity vertex ids and their vertex gather table.
+// The elements of one kind: count x arity vertex ids and their vertex gather table (the
+// vertices have neither: element i is vertex i).
 struct CostElements {
   int count = 0, arity = 1;
   std::vector<int> ids;
@@ -33,7 +33,7 @@ struct CostSetView {
   int n = 0;
   struct ElementsView {
     int count = 0, arity = 1;
-    const int* ids = nullptr;                              // count x arity
+    const int* ids = nullptr;                              // count x arity (not for vertices)
     const int *offsets = nullptr, *slots = nullptr;        // gather: n + 1, count x arity
   } elements[kNumElementKinds];
   const double* constants[kNumCostTerms] = {};             // count x the term's width

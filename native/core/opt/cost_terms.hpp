@@ -63,6 +63,17 @@ constexpr bool cost_orders_distinct() {
 }
 static_assert(cost_orders_distinct(), "each cost term needs its own order, 0 to the number of terms - 1");
 
+// CostTermType<t>::type: the struct registered as t.
+template <CostTerm t>
+struct CostTermType;
+#define SEAMFIT_COST_TYPE(T, ...) \
+  template <>                     \
+  struct CostTermType<k##T> {     \
+    using type = costs::T;        \
+  };
+SEAMFIT_COST_TERMS(SEAMFIT_COST_TYPE)
+#undef SEAMFIT_COST_TYPE
+
 // f(term) with term a value of the struct registered as t.
 template <class F>
 void visit_cost_term(CostTerm t, F&& f) {

@@ -3,6 +3,7 @@
 #include <cuda_runtime.h>
 
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "device/dev_buffer.cuh"
@@ -15,50 +16,66 @@ namespace {
 constexpr int kBlock = 128;
 int blocks(int n) { return (n + kBlock - 1) / kBlock; }
 
-// One term's pass over its elements.
-struct ElementArgs {
-  opt::CostInputs in;
-  int count = 0, arity = 1;
-  const int* ids = nullptr;
-  const double* c = nullptr;
-  double k = 0;
-  double* val = nullptr;
-  Vec3* slot_x = nullptr;
-  Vec2* slot_p = nullptr;  // terms with kPattern only
+// What the kernels read of each term, indexed by its registry number.
+struct TermArgs {
+  double k = 0;                     // its strength: 0, skipped
+  const double* c = nullptr;        // its constants, the term's width per element
+  double* val = nullptr;            // per element value
+  const int *ids = nullptr, *offsets = nullptr, *slots = nullptr;  // its elements (not vertices)
+  Vec3* slot_x = nullptr;           // per element gradient slots (not vertices)
+  Vec2* slot_p = nullptr;           // the same for p (terms with kPattern)
 };
 
-template <class T>
-__global__ void k_elements(ElementArgs a) {
-  const int e = blockIdx.x * blockDim.x + threadIdx.x;
-  if (e >= a.count) return;
-  const size_t s = size_t(a.arity) * e;
-  a.val[e] = T::element(a.in, a.ids + s, a.c + size_t(T::kWidth) * e, a.k, a.slot_x + s,
-                        a.slot_p ? a.slot_p + s : nullptr);
-}
-
-// The evaluated terms' gradient slots, in gradient order.
-struct GatherArgs {
-  int n = 0, count = 0;
-  struct Term {
-    const int *offsets, *slots;
-    const Vec3* slot_x;
-    const Vec2* slot_p;
-  } term[opt::kNumCostTerms];
+struct Args {
+  opt::CostInputs in;
+  int n = 0;
+  TermArgs term[opt::kNumCostTerms];
   Vec3* gx = nullptr;
   Vec2* gp = nullptr;
 };
 
-// Each vertex's gradients: its slots of each term in turn, the CPU's order of additions.
-__global__ void k_gather(GatherArgs a) {
+// A term over edges or hinges: each element's value and gradient slots.
+template <class T>
+__global__ void k_elements(opt::CostInputs in, TermArgs u, int count) {
+  const int e = blockIdx.x * blockDim.x + threadIdx.x;
+  if (e >= count) return;
+  constexpr int arity = opt::kElementArity[T::kOn];
+  u.val[e] = T::element(in, u.ids + arity * e, u.c + size_t(T::kWidth) * e, u.k, u.slot_x + arity * e,
+                        T::kPattern ? u.slot_p + arity * e : nullptr);
+}
+
+// Term number R in gradient order at vertex v: a term over the vertices evaluated there and
+// added to g and q, another's gradient slots gathered (the CPU's order of additions).
+template <int R>
+__device__ void add_term(const Args& a, int v, Vec3& g, Vec2& q) {
+  constexpr opt::CostTerm t = opt::kCostGradientOrder[R];
+  using T = typename opt::CostTermType<t>::type;
+  const TermArgs& u = a.term[t];
+  if (u.k == 0) return;
+  if constexpr (T::kOn == opt::kVertices) {
+    Vec3 gi;
+    Vec2 qi = make_vec2(0, 0);
+    u.val[v] = T::element(a.in, &v, u.c + size_t(T::kWidth) * v, u.k, &gi, &qi);
+    g += gi;
+    if (T::kPattern) q += qi;
+  } else {
+    gather_add(v, u.offsets, u.slots, u.slot_x, g);
+    if (T::kPattern) gather_add(v, u.offsets, u.slots, u.slot_p, q);
+  }
+}
+
+template <int... R>
+__device__ void add_terms(const Args& a, int v, Vec3& g, Vec2& q, std::integer_sequence<int, R...>) {
+  (add_term<R>(a, v, g, q), ...);
+}
+
+// Each vertex's gradients, term by term in gradient order.
+__global__ void k_gradient(Args a) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= a.n) return;
   Vec3 g = make_vec3(0, 0, 0);
   Vec2 q = make_vec2(0, 0);
-  for (int t = 0; t < a.count; ++t) {
-    const GatherArgs::Term& u = a.term[t];
-    gather_add(v, u.offsets, u.slots, u.slot_x, g);
-    if (u.slot_p) gather_add(v, u.offsets, u.slots, u.slot_p, q);
-  }
+  add_terms(a, v, g, q, std::make_integer_sequence<int, opt::kNumCostTerms>{});
   a.gx[v] = g;
   a.gp[v] = q;
 }
@@ -88,7 +105,7 @@ CostSetGpu::CostSetGpu(opt::CostSet& cs) : impl_(new Impl) {
   const opt::CostSetView v = cs.view();
   I.view = v;
   cudaStream_t s = 0;
-  for (int kind = 0; kind < opt::kNumElementKinds; ++kind) {
+  for (int kind = opt::kEdges; kind < opt::kNumElementKinds; ++kind) {  // the vertices have no ids
     const auto& el = v.elements[kind];
     const size_t slots = size_t(el.arity) * el.count;
     upload(I.ids[kind], el.ids, slots, s);
@@ -103,8 +120,8 @@ CostSetGpu::CostSetGpu(opt::CostSet& cs) : impl_(new Impl) {
       const size_t count = size_t(v.elements[T::kOn].count), slots = size_t(v.elements[T::kOn].arity) * count;
       if (v.ready[q]) upload(I.constants[q], v.constants[q], size_t(T::kWidth) * count, s);
       I.val[q].reserve(count * sizeof(double));
-      I.slot_x[q].reserve(slots * sizeof(Vec3));
-      if (T::kPattern) I.slot_p[q].reserve(slots * sizeof(Vec2));
+      if (T::kOn != opt::kVertices) I.slot_x[q].reserve(slots * sizeof(Vec3));
+      if (T::kOn != opt::kVertices && T::kPattern) I.slot_p[q].reserve(slots * sizeof(Vec2));
       partials += size_t(blocks(int(count)));
     });
   I.x.reserve(size_t(v.n) * sizeof(Vec3));
@@ -148,32 +165,33 @@ double CostSetGpu::evaluate_device(const double* d_x, const double* d_p, double*
   in.p = reinterpret_cast<const Vec2*>(d_p);
   in.sdf = v.sdf;
   in.sdf.values = I.sdf_values.as<float>();
-  GatherArgs g;
-  g.n = v.n;
-  g.gx = reinterpret_cast<Vec3*>(d_grad_x);
-  g.gp = reinterpret_cast<Vec2*>(d_grad_p);
+  Args a;
+  a.in = in;
+  a.n = v.n;
+  a.gx = reinterpret_cast<Vec3*>(d_grad_x);
+  a.gp = reinterpret_cast<Vec2*>(d_grad_p);
+  // Each evaluated term's arguments, and the element pass of those over edges or hinges.
   int counts[opt::kNumCostTerms] = {};
-  for (const opt::CostTerm q : opt::kCostGradientOrder) {
+  for (int q = 0; q < opt::kNumCostTerms; ++q) {
     if (k[q] == 0) continue;
-    opt::visit_cost_term(q, [&](auto term) {
+    opt::visit_cost_term(opt::CostTerm(q), [&](auto term) {
       using T = decltype(term);
-      const auto& el = v.elements[T::kOn];
-      ElementArgs a;
-      a.in = in;
-      a.count = el.count;
-      a.arity = el.arity;
-      a.ids = I.ids[T::kOn].template as<int>();
-      a.c = I.constants[q].as<double>();
-      a.k = k[q];
-      a.val = I.val[q].as<double>();
-      a.slot_x = I.slot_x[q].as<Vec3>();
-      a.slot_p = T::kPattern ? I.slot_p[q].as<Vec2>() : nullptr;
-      if (el.count) k_elements<T><<<blocks(el.count), kBlock, 0, s>>>(a);
-      g.term[g.count++] = {I.offsets[T::kOn].template as<int>(), I.slots[T::kOn].template as<int>(), a.slot_x, a.slot_p};
-      counts[q] = el.count;
+      TermArgs& u = a.term[q];
+      u.k = k[q];
+      u.c = I.constants[q].template as<double>();
+      u.val = I.val[q].template as<double>();
+      u.ids = I.ids[T::kOn].template as<int>();
+      u.offsets = I.offsets[T::kOn].template as<int>();
+      u.slots = I.slots[T::kOn].template as<int>();
+      u.slot_x = I.slot_x[q].template as<Vec3>();
+      u.slot_p = I.slot_p[q].template as<Vec2>();
+      counts[q] = v.elements[T::kOn].count;
+      if constexpr (T::kOn != opt::kVertices)
+        if (counts[q]) k_elements<T><<<blocks(counts[q]), kBlock, 0, s>>>(in, u, counts[q]);
     });
   }
-  if (v.n) k_gather<<<blocks(v.n), kBlock, 0, s>>>(g);
+  // Then every vertex's gradient, the vertices' own terms evaluated there.
+  if (v.n) k_gradient<<<blocks(v.n), kBlock, 0, s>>>(a);
   // Per-term sums: block partials in a fixed order.
   int offset[opt::kNumCostTerms + 1] = {};
   for (int t = 0; t < opt::kNumCostTerms; ++t) offset[t + 1] = offset[t] + (k[t] != 0 ? blocks(counts[t]) : 0);

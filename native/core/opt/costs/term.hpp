@@ -10,14 +10,15 @@
 //             construction; otherwise what the caller must supply through
 //             CostSet::set_inputs (named in the error when it has not);
 //   kField    whether element() samples the target body's SDF (CostSet::set_target_sdf);
-//   kPattern  whether it depends on the pattern p (writes pattern gradient slots);
+//   kPattern  whether it depends on the pattern p (and writes gp);
 //   base(b, v, c)  the constants c of the element with vertices v (host only);
 //   element(in, v, c, k, gx, gp)  the element's value at strength k, its gradient
 //             with respect to x at each of its vertices into gx[0..arity) and, with
 //             kPattern, with respect to p into gp[0..arity) (host and device).
-// The cost sets sum each vertex's gradient slots in a fixed order (opt/costs/gather.hpp),
-// so results do not depend on the thread count, and the CPU and GPU add the same
-// values in the same order.
+// The cost sets add up each vertex's gradient term by term, in the registry's order: a term
+// over the vertices adds its own straight in, another its elements' slots in slot order
+// (opt/costs/gather.hpp). Results do not depend on the thread count, and the CPU and GPU
+// add the same values in the same order.
 #pragma once
 #include "body/sdf_grid.hpp"
 #include "common/vec3.hpp"

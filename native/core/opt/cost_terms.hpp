@@ -1,8 +1,8 @@
 // The fitting cost terms C of Section 6, each registered once, here: the CPU and GPU cost
 // sets, the bindings and through them seamfit.opt.costs.Strengths, the command line and
 // the add-on all iterate over this list. A new term is its header under opt/costs/ (its
-// energy and its struct, opt/costs/term.hpp), an include and a line below, its test and
-// its line in docs/method.md (docs/architecture.md, "Adding a cost term").
+// energy and its struct, opt/costs/term.hpp), an include and a line below, its test and its
+// row in docs/optimizer.md's costs table (docs/architecture.md, "Adding a cost term").
 #pragma once
 #include <array>
 #include <cstring>

@@ -43,8 +43,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 sys.path.insert(0, str(HERE))
+from bench_cli import Commands, add_sweep  # noqa: E402
 
-DATA = Path("/work/shared/data")
 BASELINES = ("unchanged", "scaled")
 
 
@@ -299,17 +299,11 @@ def cmd_report(args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
-    sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run", help="grade and score every (garment, body) case")
-    r.add_argument("--data", type=Path, default=DATA, help=f"data folder with patterns/ and bodies/ (default {DATA})")
-    r.add_argument("--out", type=Path, required=True, help="results folder (results.json, cases/)")
-    r.add_argument("--jobs", type=int, default=1, help="cases at once (default 1)")
+    cli = Commands(__doc__.splitlines()[0], epilog=__doc__)
+    r = cli.add_run(cmd_run, help="grade and score every (garment, body) case")
+    add_sweep(r, jobs_help="cases at once (default 1)")
     r.add_argument("--threads", type=int, default=0, help="OpenMP threads per case (default cores / jobs)")
     r.add_argument("--methods", default="adjoint", help="comma list of grading methods (default adjoint)")
-    r.add_argument("--garments", default=None, help="comma list (default all)")
-    r.add_argument("--bodies", default=None, help="comma list of target bodies (default all but the base)")
     r.add_argument("--base", default="size06", help="base body id (default size06)")
     r.add_argument("--preset", default="auto", help="strength preset; auto: seamfit's choice for the garment kind")
     r.add_argument("--edge-length", type=float, default=None, help="mesh edge cm (default: GradeSettings)")
@@ -331,19 +325,13 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--case-timeout", type=float, default=None, help="kill a case after this many seconds")
     r.add_argument("--no-baseline-ease", action="store_true", help="skip draping the two baselines")
     r.add_argument("--resume", action="store_true", help="keep cases already finished under OUT/cases")
-    r.set_defaults(func=cmd_run)
-    c = sub.add_parser("case", help=argparse.SUPPRESS)
+    c = cli.add("case", cmd_case, help=argparse.SUPPRESS)
     c.add_argument("spec")
     c.add_argument("result")
-    c.set_defaults(func=cmd_case)
-    p = sub.add_parser("report", help="results.json files -> docs/accuracy_results.md and docs/img/accuracy_*.png")
-    p.add_argument("results", type=Path, nargs="+")
-    p.add_argument("--docs", type=Path, default=ROOT / "docs")
+    p = cli.add_report(cmd_report, notes="markdown file appended as 'Notes on this run'",
+                       help="results.json files -> docs/accuracy_results.md and docs/img/accuracy_*.png")
     p.add_argument("--note", default=None, help="a sentence put under the title (e.g. 'subset run')")
-    p.add_argument("--notes", type=Path, default=None, help="markdown file appended as 'Notes on this run'")
-    p.set_defaults(func=cmd_report)
-    args = ap.parse_args(argv)
-    return args.func(args)
+    return cli.main(argv)
 
 
 if __name__ == "__main__":

@@ -13,7 +13,6 @@ re-grading sees them).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import multiprocessing
 import os
@@ -28,6 +27,7 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 sys.path.insert(0, str(HERE))
 from doc_page import write_page  # noqa: E402
+from bench_cli import Commands, add_sweep  # noqa: E402
 
 
 def run_case(data: str, garment: str, body: str, edge: float, budget: float, device: str) -> dict:
@@ -182,25 +182,16 @@ def cmd_report(a) -> int:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser()
-    sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run")
-    r.add_argument("--data", type=Path, default=Path("/work/shared/data"))
-    r.add_argument("--out", type=Path, required=True)
-    r.add_argument("--jobs", type=int, default=1)
+    cli = Commands()
+    r = cli.add_run(cmd_run)
+    add_sweep(r)
     r.add_argument("--threads", type=int, default=1)
-    r.add_argument("--garments", default="")
-    r.add_argument("--bodies", default="")
     r.add_argument("--edge-lengths", default="3")
     r.add_argument("--budgets", default="10,30,100")
     r.add_argument("--device", default="cpu")
     r.add_argument("--gpus", type=int, default=1, help="spread the workers over this many GPUs")
-    p = sub.add_parser("report")
-    p.add_argument("results", type=Path, nargs="+")
-    p.add_argument("--docs", type=Path, default=ROOT / "docs")
-    p.add_argument("--notes", type=Path, default=None)
-    a = ap.parse_args(argv)
-    return cmd_run(a) if a.cmd == "run" else cmd_report(a)
+    cli.add_report(cmd_report, notes="markdown appended after the table")
+    return cli.main(argv)
 
 
 if __name__ == "__main__":

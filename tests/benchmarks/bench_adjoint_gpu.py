@@ -16,7 +16,6 @@ dF/dp + (df/dp)^T lam; the residual is |g - H lam| / |g| with the CPU's Hessian.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -27,8 +26,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 # The grading case of the device benchmark (it also puts native/python on the path).
-from bench_grade_device import B0, B1, PATTERN, ROOT  # noqa: E402
+from bench_grade_device import B0, B1, PATTERN  # noqa: E402
 from seamfit.fileio import atomic_write_text  # noqa: E402
+from bench_cli import Commands  # noqa: E402
 
 
 def one_size(edge_cm: float, args) -> dict:
@@ -241,26 +241,21 @@ def cmd_report(args) -> int:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run")
-    r.add_argument("--out", type=Path, required=True)
+    cli = Commands(__doc__)
+    r = cli.add_run(cmd_run)
     r.add_argument("--edges", type=float, nargs="+", default=[1.1, 0.64])
     r.add_argument("--tolerances", type=float, nargs="+", default=[1e-4, 1e-6, 1e-8])
     r.add_argument("--max-iterations", type=int, default=50000)
     r.add_argument("--stage-seconds", type=float, default=0.0, help="time budget per drape stage (0: none)")
-    t = sub.add_parser("ncu-target")
+    t = cli.add("ncu-target", cmd_ncu_target)
     t.add_argument("--edge", type=float, default=0.45)
     t.add_argument("--settle", type=int, default=2000, help="simulator iterations before the solve")
     t.add_argument("--iterations", type=int, default=2000)
     t.add_argument("--only", choices=("persistent", "graph"), help="time one path only (for a profiler)")
-    q = sub.add_parser("report")
-    q.add_argument("results", type=Path, nargs="+")
-    q.add_argument("--docs", type=Path, default=ROOT / "docs")
+    q = cli.add_report(cmd_report)
     q.add_argument("--sizes", type=Path, help="the JSON lines of ncu-target runs (time per iteration)")
     q.add_argument("--ncu", type=Path, nargs="*", help="ncu --csv outputs of ncu-target runs")
-    args = ap.parse_args(argv)
-    return {"run": cmd_run, "ncu-target": cmd_ncu_target, "report": cmd_report}[args.cmd](args)
+    return cli.main(argv)
 
 
 if __name__ == "__main__":

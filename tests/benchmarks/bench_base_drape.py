@@ -16,7 +16,6 @@ as the grading keys it with SimSettings(max_seconds=--stage-seconds).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -29,6 +28,8 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "native" / "python"))
 
 from seamfit.fileio import atomic_write_text  # noqa: E402
+from bench_cli import Commands  # noqa: E402
+from doc_page import write_page  # noqa: E402
 
 SAMPLES = ROOT / "sample_files"
 PATTERN = SAMPLES / "patterns" / "gc_pencil_skirt" / "size06" / "pattern.json"
@@ -115,27 +116,19 @@ def cmd_report(args) -> int:
         if "error" in r:
             lines.append(f"\n* {r['edge_length_cm']} cm edge, {r.get('sdf_spacing_mm', 2.5):g} mm SDF, on "
                          f"{r['device']}: {r['error']}")
-    atomic_write_text(args.docs / "base_drape_results.md", "\n".join(lines) + "\n")
-    print(f"wrote {args.docs / 'base_drape_results.md'}")
+    write_page(args.docs / "base_drape_results.md", lines)
     return 0
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run")
-    r.add_argument("--out", type=Path, required=True)
+    cli = Commands(__doc__)
+    r = cli.add_run(cmd_run)
     r.add_argument("--edges", type=float, nargs="+", default=[1.1, 0.64, 0.45])
     r.add_argument("--devices", nargs="+", default=["cuda"])
     r.add_argument("--stage-seconds", type=float, default=0.0)
     r.add_argument("--sdf-spacing", type=float, default=0.0025)
-    r.set_defaults(fn=cmd_run)
-    p = sub.add_parser("report")
-    p.add_argument("results", type=Path, nargs="+")
-    p.add_argument("--docs", type=Path, default=ROOT / "docs")
-    p.set_defaults(fn=cmd_report)
-    args = ap.parse_args(argv)
-    return args.fn(args)
+    cli.add_report(cmd_report)
+    return cli.main(argv)
 
 
 if __name__ == "__main__":

@@ -16,7 +16,6 @@ grades one style to many customers. Each configuration gets ``--rounds`` jobs pe
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -25,6 +24,8 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+from bench_cli import Commands
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -158,21 +159,15 @@ def cmd_report(a) -> int:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run")
-    r.add_argument("--out", required=True)
+    cli = Commands(__doc__)
+    r = cli.add_run(cmd_run)
     r.add_argument("--work", default="/tmp/seamfit_batch_scaling")
     r.add_argument("--workers", default="1,2")
     r.add_argument("--gpus", default="")
     r.add_argument("--gpu-share", type=float, default=0.25)
     r.add_argument("--rounds", type=int, default=2, help="jobs per worker (default 2)")
-    p = sub.add_parser("report")
-    p.add_argument("results", nargs="+")
-    p.add_argument("--docs", default=str(ROOT / "docs"))
-    p.add_argument("--notes", default=None)
-    a = ap.parse_args(argv)
-    return cmd_run(a) if a.cmd == "run" else cmd_report(a)
+    cli.add_report(cmd_report, notes="markdown appended after the table")
+    return cli.main(argv)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,6 @@ table. The committed page is rewritten by (one line)
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -36,8 +35,8 @@ sys.path.insert(0, str(ROOT / "native" / "python"))
 
 from accuracy_case import body_file  # noqa: E402
 from seamfit.fileio import atomic_write_text  # noqa: E402
+from bench_cli import Commands, add_sweep  # noqa: E402
 
-DATA = Path("/work/shared/data")
 MAX_GAP_MM = 2.0        # seams closed
 MIN_PHI_MM = -1.0       # nothing inside the body
 
@@ -189,29 +188,19 @@ def cmd_report(args) -> int:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = p.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run")
-    r.add_argument("--data", type=Path, default=DATA)
-    r.add_argument("--out", type=Path, required=True)
-    r.add_argument("--jobs", type=int, default=1)
+    cli = Commands(__doc__)
+    r = cli.add_run(cmd_run)
+    add_sweep(r, bodies=False)
     r.add_argument("--threads", type=int, default=0, help="OpenMP threads per drape (default cores / jobs)")
-    r.add_argument("--garments", default=None, help="comma list (default all)")
     r.add_argument("--cases", default=None, help="comma list of garment/body (default all)")
     r.add_argument("--edge-length", type=float, default=1.5, help="mesh edge cm (default 1.5, the drape default)")
     r.add_argument("--sdf-spacing", type=float, default=0.0025, help="SDF spacing m (default 0.0025)")
     r.add_argument("--max-seconds", type=float, default=0.0, help="time budget per drape stage (default none)")
-    r.set_defaults(func=cmd_run)
-    q = sub.add_parser("report")
-    q.add_argument("results", type=Path, nargs="+",
-                   help="results.json of one or more runs; a later run's case replaces an earlier one's")
-    q.add_argument("--docs", type=Path, default=ROOT / "docs")
+    q = cli.add_report(cmd_report)
     q.add_argument("--notes", type=Path, default=HERE / "dress_notes.md",
                    help="the reading of the results: its first paragraph the page's summary, the rest "
                         "appended after the table (default tests/benchmarks/dress_notes.md)")
-    q.set_defaults(func=cmd_report)
-    args = p.parse_args(argv)
-    return args.func(args)
+    return cli.main(argv)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,6 @@ cpu``, the host's cores shared out) put the card's figures in proportion.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -26,6 +25,8 @@ import sys
 import threading
 import time
 from pathlib import Path
+
+from bench_cli import Commands
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLES = ROOT / "sample_files"
@@ -186,21 +187,15 @@ def cmd_report(a) -> int:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run")
-    r.add_argument("--out", required=True)
+    cli = Commands(__doc__.splitlines()[0])
+    r = cli.add_run(cmd_run)
     r.add_argument("--work", default="/tmp/seamfit_gpu_share")
     r.add_argument("--at-once", default="1,2,4,8", help="gradings at once on the device")
     r.add_argument("--rounds", type=int, default=3, help="gradings per worker (default 3)")
     r.add_argument("--device", default="cuda")
     r.add_argument("--cpu-at-once", default="", help="the same rows on the CPU alone, e.g. 1,4,16")
-    p = sub.add_parser("report")
-    p.add_argument("results", nargs="+")
-    p.add_argument("--docs", default=str(ROOT / "docs"))
-    p.add_argument("--notes", default=None)
-    a = ap.parse_args(argv)
-    return cmd_run(a) if a.cmd == "run" else cmd_report(a)
+    cli.add_report(cmd_report, notes="markdown appended after the table")
+    return cli.main(argv)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,6 @@ drape's time is reported for the run that made it.
 """
 from __future__ import annotations
 
-import argparse
 import contextlib
 import json
 import os
@@ -31,6 +30,7 @@ sys.path.insert(0, str(ROOT / "native" / "python"))
 
 from seamfit.fileio import atomic_write_text  # noqa: E402
 from seamfit.opt.grade import GradeSettings  # noqa: E402
+from bench_cli import DOCS, Commands  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import measure_switches  # noqa: E402
@@ -357,10 +357,8 @@ def cmd_curves(args) -> int:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = p.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run")
-    r.add_argument("--out", type=Path, required=True)
+    cli = Commands(__doc__)
+    r = cli.add_run(cmd_run)
     r.add_argument("--pattern", type=Path, default=PATTERN,
                    help="the base pattern, graded from women_size06 to women_size10 (default: the pencil skirt)")
     r.add_argument("--edges", type=float, nargs="+", default=[1.1, 0.64, 0.45],
@@ -383,32 +381,24 @@ def main(argv=None) -> int:
                    help="time the grading even when the base drape does not settle (its row says so)")
     r.add_argument("--rho-max", type=float, default=0.0,
                    help="upper bound of the Chebyshev rho (0: the simulator's default)")
-    r.set_defaults(func=cmd_run)
-    c = sub.add_parser("curves")
+    c = cli.add("curves", cmd_curves)
     c.add_argument("--out", type=Path, required=True)
     c.add_argument("--devices", nargs="+", default=["cpu"])
     c.add_argument("--S", type=int, nargs="+", default=[1, 2, 4, 8])
     c.add_argument("--edge", type=float, default=1.1, help="mesh edge length in cm (default 1.1: about 10K triangles)")
     c.add_argument("--max-iterations", type=int, default=64)
     c.add_argument("--checkpoint-every", type=int, default=8)
-    c.add_argument("--docs", type=Path, default=ROOT / "docs")
+    c.add_argument("--docs", type=Path, default=DOCS)
     c.add_argument("--merge", type=Path, nargs="*", help="curves.json files whose runs join the plot")
-    c.set_defaults(func=cmd_curves)
-    t = sub.add_parser("ncu-target", help="the GPU parts of a few outer iterations, for ncu")
+    t = cli.add("ncu-target", cmd_ncu_target, help="the GPU parts of a few outer iterations, for ncu")
     t.add_argument("--edge", type=float, default=0.45)
     t.add_argument("--reps", type=int, default=3)
-    t.set_defaults(func=cmd_ncu_target)
-    k = sub.add_parser("ncu-report", help="a markdown table of ncu --csv counters of ncu-target")
+    k = cli.add("ncu-report", cmd_ncu_report, help="a markdown table of ncu --csv counters of ncu-target")
     k.add_argument("csv", type=Path)
-    k.add_argument("--docs", type=Path, default=ROOT / "docs")
-    k.set_defaults(func=cmd_ncu_report)
-    q = sub.add_parser("report")
-    q.add_argument("results", type=Path, nargs="+")
+    k.add_argument("--docs", type=Path, default=DOCS)
+    q = cli.add_report(cmd_report)
     q.add_argument("--curves", type=Path, default=None, help="curves.json of a curves run, tabled with its plot")
-    q.add_argument("--docs", type=Path, default=ROOT / "docs")
-    q.set_defaults(func=cmd_report)
-    args = p.parse_args(argv)
-    return args.func(args)
+    return cli.main(argv)
 
 
 if __name__ == "__main__":

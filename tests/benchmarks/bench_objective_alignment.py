@@ -15,7 +15,6 @@ prefers patterns no pattern maker would draft, and the terms say which part.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import statistics as st
@@ -32,6 +31,7 @@ ROOT = HERE.parents[1]
 sys.path.insert(0, str(HERE))
 from doc_page import write_page  # noqa: E402
 from draft_on_mesh import truth_on_mesh  # noqa: E402
+from bench_cli import Commands, add_sweep  # noqa: E402
 
 CANDIDATES = ("truth", "unchanged", "scaled", "level", "initialized", "graded")
 TERMS = ("dis", "smo", "str", "pos", "fix", "cur", "seam")
@@ -201,14 +201,9 @@ def cmd_report(a) -> int:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser()
-    sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run")
-    r.add_argument("--data", type=Path, default=Path("/work/shared/data"))
-    r.add_argument("--out", type=Path, required=True)
-    r.add_argument("--jobs", type=int, default=1)
-    r.add_argument("--garments", default="")
-    r.add_argument("--bodies", default="")
+    cli = Commands()
+    r = cli.add_run(cmd_run)
+    add_sweep(r)
     r.add_argument("--preset", default="auto")
     r.add_argument("--start", default=None)
     r.add_argument("--edge-length", type=float, default=3.0)
@@ -218,12 +213,8 @@ def main(argv=None) -> int:
     r.add_argument("--inner-iterations", type=int, default=None)
     r.add_argument("--time-budget", type=float, default=100.0)
     r.add_argument("--seam", type=float, default=None)
-    p = sub.add_parser("report")
-    p.add_argument("results", type=Path)
-    p.add_argument("--docs", type=Path, default=ROOT / "docs")
-    p.add_argument("--notes", type=Path, default=None, help="markdown appended as 'Reading'")
-    a = ap.parse_args(argv)
-    return cmd_run(a) if a.cmd == "run" else cmd_report(a)
+    cli.add_report(cmd_report, nargs=None, notes="markdown appended as 'Reading'")
+    return cli.main(argv)
 
 
 if __name__ == "__main__":

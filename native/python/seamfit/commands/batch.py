@@ -13,23 +13,20 @@ See docs/batch.md.
 """
 from __future__ import annotations
 
-import argparse
 import os
 from pathlib import Path
 
 from ..errors import SeamfitError
+from .parsing import add_command
+
+EPILOG = ("Job fields and settings: docs/batch.md. A job's settings are the options of `seamfit grade`, "
+          "by name (edge_length, max_iterations, preset, ...).")
 
 
 def register(subparsers) -> None:
     from ..batch.run import Resources
     d = Resources()
-    p = subparsers.add_parser(
-        "batch", help="run a manifest of gradings on Ray (a folder per job, a summary, resumable)",
-        description="Grade every job of MANIFEST (JSON or CSV) on Ray: locally on this machine's cores and GPUs, "
-                    "or on a cluster with --address. Finished jobs are skipped on a rerun.",
-        epilog="Job fields and settings: docs/batch.md. A job's settings are the options of `seamfit grade`, "
-               "by name (edge_length, max_iterations, preset, ...).",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(subparsers, "batch", EPILOG)
     p.add_argument("manifest", metavar="MANIFEST", type=Path, help="the jobs: a .json or .csv file")
     p.add_argument("--out", metavar="DIR", type=Path, required=True,
                    help="output folder: a folder per job, logs, records, status.json, summary")

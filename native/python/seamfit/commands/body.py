@@ -13,7 +13,6 @@ surface and back, in mm (seamfit.body.register).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import re
 import sys
@@ -22,6 +21,7 @@ from pathlib import Path
 
 from ..errors import SeamfitError
 from ..output_set import OutputSet, add_force_argument
+from .parsing import add_command
 
 EPILOG = """\
 Measurements (cm unless the file says otherwise): height, bust, underbust, waist, hip,
@@ -35,11 +35,7 @@ BODY_SUFFIXES = (".obj", ".ply")
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser(
-        "body", help="make bodies from measurements (OBJ/PLY + report)",
-        description="Make bodies of the sample bodies' mesh from measurements, and report how "
-                    "well each meets them.",
-        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(subparsers, "body", EPILOG)
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument("--measurements", metavar="FILE", type=Path,
                         help="seamfit .json, Seamly2D/Valentina .vit (one body) or .vst (one body per size)")

@@ -7,13 +7,13 @@ gives the same stitches and placements.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 from ..errors import SeamfitError
 from ..output_set import OutputSet, add_force_argument, check_not_an_input
 from ..pattern_files import output_kind, write_pattern_files
+from .parsing import add_command
 
 
 EPILOG = """\
@@ -50,10 +50,7 @@ and --seam-allowance CM for every edge without one (also replacing the kept cut 
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser(
-        "convert", help="convert a pattern between sewpat-1, GarmentCode, DXF-AAMA/ASTM and SVG",
-        description="Convert a pattern file to another format, chosen by the output's extension.",
-        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(subparsers, "convert", EPILOG)
     p.add_argument("input", metavar="IN", type=Path, help="pattern .json (sewpat-1, GarmentCode) or .dxf")
     p.add_argument("--out", metavar="OUT", type=Path, default=None,
                    help="output file: .json (sewpat-1), .svg or .dxf (.aama.dxf, .astm.dxf)")

@@ -13,14 +13,13 @@ settling exit 1), 2 on an error.
 """
 from __future__ import annotations
 
-import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
-from ..output_set import OutputSet, add_force_argument
+from ..output_set import OutputSet
 from ..pictures import draw_pictures, skipped
+from .parsing import add_command, add_outcome_options, warner
 
 EPILOG = """\
 The garment starts from the pattern's placement (GarmentCode: exact; FreeSewing:
@@ -34,11 +33,7 @@ def register(subparsers) -> None:
     from .. import settings
     from ..sim import SimSettings
     st = SimSettings()
-    p = subparsers.add_parser(
-        "drape", help="sew a pattern and dress it on a body (OBJ, report, picture)",
-        description="Mesh a pattern, dress it on a body with the quasistatic simulator and write "
-                    "the draped garment, a report and a picture.",
-        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(subparsers, "drape", EPILOG)
     p.add_argument("pattern", metavar="PATTERN", type=Path, help="pattern file (sewpat-1 or GarmentCode .json)")
     p.add_argument("body", metavar="BODY", type=Path, help="body mesh (.obj or .ply, metres, Z up, facing -Y)")
     p.add_argument("--out", metavar="DIR", type=Path, required=True,
@@ -55,12 +50,7 @@ def register(subparsers) -> None:
     p.add_argument("--dress", choices=("auto", "wrap", "none"), default="auto",
                    help="start positions: wrap hint placements around the body (auto), wrap every "
                         "panel (wrap), or use the placement as is (none)")
-    p.add_argument("--fail-unconverged", action="store_true",
-                   help="exit 1 when the drape stopped before settling (the files are still written); "
-                        "default: exit 0 whenever the files are written")
-    p.add_argument("--no-picture", action="store_true", help="do not write drape.png")
-    add_force_argument(p)
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    add_outcome_options(p, "the drape stopped before settling", "files", "drape.png")
     p.set_defaults(func=run)
 
 
@@ -76,9 +66,7 @@ def run(args) -> int:
     out = Path(args.out)
     t0 = time.perf_counter()
 
-    def warn(message: str) -> None:
-        if not args.quiet:
-            print(f"seamfit drape: warning: {message}", file=sys.stderr)
+    warn = warner("drape", args.quiet)
 
     # the checks of seamfit validate and the size limits, before any meshing or SDF
     pattern = checked_pattern(args.pattern, args.edge_length, warn)

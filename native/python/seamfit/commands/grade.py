@@ -16,13 +16,13 @@ say which; --fail-unconverged makes a stop at the budget exit 1), 2 on an error.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 from ..grade_files import PICTURES
-from ..output_set import OutputSet, add_force_argument
+from ..output_set import OutputSet
 from ..pictures import written
+from .parsing import add_command, add_outcome_options, warner
 
 EPILOG = """\
 Presets (strengths fix, cur, dis, smo, str, pos from the paper's Table 1; seam, the
@@ -44,11 +44,7 @@ See docs/method.md for the method, docs/grading.md for the baselines and docs/cl
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser(
-        "grade", help="adjust a base pattern to a new body (pattern, nest SVG, drape, report)",
-        description="Compute the pattern that makes the garment fit TARGET the way the base pattern "
-                    "fits BASE (rule-free grading and made-to-measure).",
-        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(subparsers, "grade", EPILOG)
     p.add_argument("pattern", metavar="PATTERN", type=Path, help="base pattern (sewpat-1, GarmentCode .json or .dxf)")
     p.add_argument("--base-body", metavar="B0", type=Path, required=True,
                    help="body the base pattern fits (.obj/.ply, metres, Z up, facing -Y)")
@@ -75,12 +71,7 @@ def add_grade_options(p, *, truth: bool) -> None:
     if truth:
         p.add_argument("--truth", metavar="PATTERN", type=Path, default=None,
                        help="a pattern drafted for the target body: report landmark errors against it")
-    p.add_argument("--fail-unconverged", action="store_true",
-                   help="exit 1 when a search stopped at its budget before converging (the results are "
-                        "still written); default: exit 0 whenever the results are written")
-    p.add_argument("--no-picture", action="store_true", help="do not write drape.png and pattern.png")
-    add_force_argument(p)
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    add_outcome_options(p, "a search stopped at its budget before converging", "results", "drape.png and pattern.png")
 
 
 def run(args) -> int:
@@ -92,9 +83,7 @@ def run(args) -> int:
     # Options, inputs and --truth are checked before any meshing, drape or search.
     check_grade_options(args)
 
-    def warn(message: str) -> None:
-        if not args.quiet:
-            print(f"seamfit grade: warning: {message}", file=sys.stderr)
+    warn = warner("grade", args.quiet)
 
     base_pattern = checked_pattern(args.pattern, args.edge_length, warn)
     truth = None

@@ -25,20 +25,17 @@ import sys
 from pathlib import Path
 
 from ..errors import SeamfitError
-from ..output_set import OutputSet, add_force_argument
+from ..output_set import OutputSet
 from .grade import (PICTURES, _registered_target, add_grade_options, check_grade_options, settings_from_args,
                     write_graded)
+from .parsing import add_command, warner
 
 NEST_PICTURES = ("nest.png",)
+EPILOG = "Options after --out are those of `seamfit grade` and apply to every size. See docs/cli.md."
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser(
-        "grade-run", help="grade a base pattern to a whole size run (a folder per size, one nest, a summary)",
-        description="Grade PATTERN, which fits B0, to every target body (smallest to largest) in one run: each "
-                    "size starts from its neighbour's result and all share the base's precompute.",
-        epilog="Options after --out are those of `seamfit grade` and apply to every size. See docs/cli.md.",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(subparsers, "grade-run", EPILOG)
     p.add_argument("pattern", metavar="PATTERN", type=Path, help="base pattern (sewpat-1, GarmentCode .json or .dxf)")
     p.add_argument("--base-body", metavar="B0", type=Path, required=True,
                    help="body the base pattern fits (.obj/.ply, metres, Z up, facing -Y)")
@@ -61,9 +58,7 @@ def run(args) -> int:
     out = Path(args.out)
     check_grade_options(args)
 
-    def warn(message: str) -> None:
-        if not args.quiet:
-            print(f"seamfit grade-run: warning: {message}", file=sys.stderr)
+    warn = warner("grade-run", args.quiet)
 
     # Every input is read and checked before any body is made or any size graded.
     base_pattern = checked_pattern(args.pattern, args.edge_length, warn)

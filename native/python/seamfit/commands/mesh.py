@@ -6,13 +6,13 @@ time). The set is written into a temporary folder beside DIR and moved into plac
 """
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
 from pathlib import Path
 
 from ..output_set import OutputSet, add_force_argument
+from .parsing import add_command, warner
 
 EPILOG = """\
 PATTERN is a sewpat-1 pattern or a GarmentCode *_specification.json (detected from content).
@@ -24,11 +24,7 @@ See docs/meshing.md.
 
 def register(subparsers) -> None:
     from .. import settings
-    p = subparsers.add_parser(
-        "mesh", help="triangulate a pattern into a sewn-ready mesh (OBJ, SVG, report)",
-        description="Triangulate every panel of a pattern, with matching vertices along both "
-                    "sides of every stitch, and write the mesh, a drawing and a report.",
-        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(subparsers, "mesh", EPILOG)
     p.add_argument("pattern", metavar="PATTERN", type=Path, help="pattern file (.json)")
     p.add_argument("--out", metavar="DIR", type=Path, required=True,
                    help="output folder (created if missing): mesh.obj, pattern.svg, report.json")
@@ -48,7 +44,7 @@ def run(args) -> int:
     out = Path(args.out)
     t0 = time.perf_counter()
     # the checks of seamfit validate and the size limits, before any meshing
-    pattern = checked_pattern(args.pattern, h, warn=None if args.quiet else _warn, drape=False)
+    pattern = checked_pattern(args.pattern, h, warn=warner("mesh", args.quiet), drape=False)
     t_load = time.perf_counter() - t0
     with OutputSet(out, inputs=[args.pattern], force=args.force) as tmp:
         mesh = build_sewn_mesh(pattern, h)
@@ -89,7 +85,3 @@ def run(args) -> int:
               f"max area error {100 * stats['max_area_error']:.3f} %", file=sys.stdout)
         print(f"wrote {out / 'mesh.obj'}, {out / 'pattern.svg'}, {out / 'report.json'}")
     return 0
-
-
-def _warn(message: str) -> None:
-    print(f"seamfit mesh: warning: {message}", file=sys.stderr)

@@ -17,11 +17,11 @@ import numpy as np
 from ..errors import BodyError
 from ..fileio import atomic_write_text
 from ..output_set import OutputSet, add_force_argument
+from .parsing import add_command
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("sdf", help="build a body's signed distance field (.npz + .json report)",
-                              description=__doc__.split("\n\n")[0])
+    p = add_command(subparsers, "sdf")
     p.add_argument("body", metavar="BODY", help="body mesh (.obj or .ply, metres, Z up)")
     p.add_argument("--out", required=True, metavar="PATH", help="output .npz (a .json report is written beside it)")
     p.add_argument("--spacing", type=float, default=0.0025, metavar="M", help="grid spacing in metres (default 0.0025)")

@@ -1,12 +1,12 @@
 """``seamfit validate FILE``: check a pattern or a body file and summarise it."""
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from pathlib import Path
 
 from ..errors import BodyError, SeamfitError
+from .parsing import add_command
 
 BODY_SUFFIXES = (".obj", ".ply")
 
@@ -38,10 +38,7 @@ exit status: 0 valid (warnings allowed unless --strict), 1 validation errors fou
 
 def register(subparsers) -> None:
     from ..pattern.validate import SEAM_TOLERANCE_CM, SEAM_TOLERANCE_REL
-    p = subparsers.add_parser(
-        "validate", help="check a pattern (sewpat-1 / GarmentCode) or body (.obj/.ply) file",
-        description="Check a pattern or body file and print a summary, or the problems found.",
-        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(subparsers, "validate", EPILOG)
     p.add_argument("file", metavar="FILE", help="pattern .json (sewpat-1 or GarmentCode "
                    "*_specification.json), pattern .dxf (AAMA/ASTM) or body mesh .obj/.ply")
     p.add_argument("--dxf-units", choices=("mm", "cm", "in", "m"), default=None,

@@ -76,6 +76,28 @@ def check_input_file(path, kind: str, error=SeamfitError) -> int:
     return st.st_size
 
 
+def check_readable_file(path, kind: str, expected: str, error=SeamfitError) -> int:
+    """check_input_file, with a missing file and a folder refused too (``expected``: the
+    kind of file that was wanted, for the message)."""
+    path = Path(path)
+    if not path.exists():
+        raise error(f"{path}: no such file")
+    if path.is_dir():
+        raise error(f"{path}: is a directory, expected {expected}")
+    return check_input_file(path, kind, error)
+
+
+def read_text_file(path: Path, what: str, error=SeamfitError) -> str:
+    """The text of the ``what`` file at ``path`` (UTF-8, a byte-order mark dropped), its
+    absence or unreadability as ``error`` naming the file."""
+    try:
+        return path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise error(f"{path}: no such {what}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise error(f"{path}: cannot read the {what}: {exc}") from None
+
+
 def estimated_mesh_vertices(pattern, edge_length_cm: float) -> float:
     """Vertices a mesh of ``pattern`` at ``edge_length_cm`` will have, to within ~20 %:
     equilateral triangles of that edge (two per vertex inside) plus the boundary vertices."""

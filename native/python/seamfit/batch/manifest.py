@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ProblemsError, SeamfitError
+from ..limits import read_text_file
 from . import settings as job_settings
 
 PATH_FIELDS = ("pattern", "base_body", "target_body", "measurements", "size_chart", "truth")
@@ -60,12 +61,7 @@ class Job:
 
 def read_manifest(path) -> list[Job]:
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise SeamfitError(f"{path}: no such manifest") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SeamfitError(f"{path}: cannot read the manifest: {exc}") from None
+    text = read_text_file(path, "manifest")
     if path.suffix.lower() == ".csv":
         rows = _csv_rows(path, text)
     else:

@@ -105,15 +105,10 @@ def load_measurement_sets(path) -> list[MeasurementSet]:
     """The measurement sets in a file: seamfit JSON (one body or several), a Seamly2D /
     Valentina individual file (.vit, .smis: one body) or multi-size table (.vst, .smms:
     one body per size), detected from the content."""
-    from ..limits import check_input_file
+    from ..limits import check_input_file, read_text_file
     path = Path(path)
     check_input_file(path, "measurements", MeasurementError)   # a FIFO would block, a device never end
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise MeasurementError(f"{path}: no such measurement file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MeasurementError(f"{path}: cannot read the measurement file: {exc}") from None
+    text = read_text_file(path, "measurement file", MeasurementError)
     head = text.lstrip()[:1]
     if head in ("{", "["):
         sets = _from_json(text, path)

@@ -148,12 +148,8 @@ def _load_doc(path: Path):
     from ezdxf import recover
     from ezdxf.lldxf.const import DXFError
 
-    from ..limits import check_input_file
-    if not path.exists():
-        raise PatternError(f"{path}: no such file")
-    if path.is_dir():
-        raise PatternError(f"{path}: is a directory, expected a DXF file")
-    check_input_file(path, "pattern", PatternError)
+    from ..limits import check_readable_file
+    check_readable_file(path, "pattern", "a DXF file", PatternError)
     try:
         with open(path, "rb") as f:
             head = f.read(64)

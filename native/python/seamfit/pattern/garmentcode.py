@@ -10,7 +10,6 @@ with orientation and ``gathered`` flags. See docs/formats.md for what is not map
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -19,6 +18,7 @@ import numpy as np
 
 from ..errors import PatternError
 from . import curves
+from .json_file import read_json
 from .model import Edge, Panel, Pattern, Placement, Stitch, StitchSide
 from .validate import find_self_intersections
 
@@ -42,14 +42,7 @@ def is_garmentcode_spec(d: Any) -> bool:
 def read_garmentcode(path: str | Path) -> Pattern:
     """Read a GarmentCode ``*_specification.json`` file."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise PatternError(f"{path}: cannot read GarmentCode file ({exc.strerror})") from exc
-    try:
-        d = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise PatternError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from exc
+    d = read_json(path, "GarmentCode")
     return pattern_from_garmentcode(d, str(path), garment_id=garment_id_from_path(path))
 
 

@@ -6,7 +6,7 @@ import os
 from pathlib import Path
 
 from ..errors import PatternError
-from ..limits import check_input_file
+from ..limits import check_readable_file
 from .garmentcode import garment_id_from_path, is_garmentcode_spec, pattern_from_garmentcode
 from .model import Pattern
 from .sewpat import FORMAT, pattern_from_dict, write_sewpat
@@ -53,11 +53,7 @@ def read_pattern_file(path: str | Path, *, dxf_units: str | None = None,
         raise PatternError(f"{path}: --rul {Path(rul).name} grades a base DXF file, not this one")
     if size is not None:
         raise PatternError(f"{path}: --size {size!r} applies to a multi-size DXF file, not to this one")
-    if not path.exists():
-        raise PatternError(f"{path}: no such file")
-    if path.is_dir():
-        raise PatternError(f"{path}: is a directory, expected {READABLE}")
-    check_input_file(path, "pattern", PatternError)
+    check_readable_file(path, "pattern", READABLE, PatternError)
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:

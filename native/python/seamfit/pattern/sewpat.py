@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import PatternError
 from ..fileio import atomic_write_text
+from .json_file import read_json
 from .model import Edge, Panel, Pattern, Placement, Stitch, StitchSide
 
 FORMAT = "sewpat-1"
@@ -196,14 +197,7 @@ def _opt_str(d: dict, key: str, where: str) -> str | None:
 
 def read_sewpat(path: str | Path) -> Pattern:
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise PatternError(f"{path}: cannot read pattern file ({exc.strerror})") from exc
-    try:
-        d = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise PatternError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from exc
+    d = read_json(path, "pattern")
     if not isinstance(d, dict):
         raise PatternError(f"{path}: a sewpat-1 file holds a JSON object")
     return pattern_from_dict(d, str(path))

@@ -66,29 +66,25 @@ class Parametrization:
     def pattern(self, theta) -> np.ndarray:
         """p(theta): (n_theta, 2) -> (n_vertices, 2), metres. A DeviceArray theta gives a
         DeviceArray p (this object's buffer, valid until the next call)."""
-        if is_device(theta):
-            if self._gpu is None:
-                return self._out.put("p", self._native.pattern(host(theta)))
-            p = self._out.get("p", len(self.pbar), 2)
-            self._gpu.pattern_device(self._native, theta, p)
-            return p
-        theta = np.ascontiguousarray(theta, dtype=float).reshape(-1, 2)
-        if self._gpu is not None:
-            return self._gpu.pattern(self._native, theta)
-        return self._native.pattern(theta)
+        return self._apply("pattern", theta, "p", len(self.pbar))
 
     def adjoint(self, g) -> np.ndarray:
         """(dp/dtheta)^T g: (n_vertices, 2) -> (n_theta, 2); DeviceArray in, DeviceArray out."""
-        if is_device(g):
+        return self._apply("adjoint", g, "g_theta", self.n_theta)
+
+    def _apply(self, op: str, x, out: str, rows: int):
+        """The linear map ``op`` (pattern or adjoint) of x where this object computes: a
+        DeviceArray x gives the ``rows`` x 2 DeviceArray buffer ``out``, host arrays host arrays."""
+        if is_device(x):
             if self._gpu is None:
-                return self._out.put("g_theta", self._native.adjoint(host(g)))
-            gt = self._out.get("g_theta", self.n_theta, 2)
-            self._gpu.adjoint_device(self._native, g, gt)
-            return gt
-        g = np.ascontiguousarray(g, dtype=float).reshape(-1, 2)
+                return self._out.put(out, getattr(self._native, op)(host(x)))
+            y = self._out.get(out, rows, 2)
+            getattr(self._gpu, op + "_device")(self._native, x, y)
+            return y
+        x = np.ascontiguousarray(x, dtype=float).reshape(-1, 2)
         if self._gpu is not None:
-            return self._gpu.adjoint(self._native, g)
-        return self._native.adjoint(g)
+            return getattr(self._gpu, op)(self._native, x)
+        return getattr(self._native, op)(x)
 
     def theta_of(self, p) -> np.ndarray:
         """The parameters of a full pattern p (its boundary vertices)."""

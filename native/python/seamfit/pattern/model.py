@@ -14,6 +14,14 @@ import numpy as np
 EDGE_KINDS = ("line", "quadratic", "cubic", "arc")
 
 
+def by_garment_type(garment_type: str | None, rules, default: str) -> str:
+    """The value of the first (substring, value) rule whose substring is in the garment type
+    (case-insensitive), ``default`` when none is: how a pattern's free-form garment_type
+    picks what suits its kind."""
+    kind = (garment_type or "").lower()
+    return next((value for key, value in rules if key in kind), default)
+
+
 @dataclass
 class Edge:
     """One source curve of a panel, running over outline indices start..end (wrapping)."""

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import Pattern
+from .model import Pattern, by_garment_type
 from .refit import refit_pattern
 
 # garment_type substrings -> girth that sets the horizontal ratio; first match wins
@@ -29,11 +29,7 @@ _GIRTH_RULES = (("circle", "waist"), ("bodice", "bust"), ("shirt", "bust"), ("to
 
 def girth_for_garment(garment_type: str | None) -> str:
     """The body girth ('bust' | 'waist' | 'hip') whose ratio scales widths of this garment."""
-    kind = (garment_type or "").lower()
-    for key, girth in _GIRTH_RULES:
-        if key in kind:
-            return girth
-    return "hip"
+    return by_garment_type(garment_type, _GIRTH_RULES, "hip")
 
 
 def scale_outline(outline_cm: np.ndarray, sx: float, sy: float) -> np.ndarray:

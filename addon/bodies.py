@@ -134,11 +134,4 @@ def show_registration(rep, reg) -> None:
 CLASSES = (SEAMFIT_OT_load_size_chart, SEAMFIT_OT_body_from_measurements, SEAMFIT_OT_register_target)
 
 
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -129,19 +129,35 @@ def _store_proposals(coll, proposals: list[dict]) -> None:
         it.why = "; ".join([entry.get("why", ""), *entry.get("notch_warnings", [])]).strip("; ")
 
 
-class SEAMFIT_OT_confirm_stitches(bpy.types.Operator):
-    """Sew the accepted proposed stitches into the pattern (the DXF file is never changed)"""
-    bl_idname = "seamfit.confirm_stitches"
-    bl_label = "Confirm Stitches"
+class PatternOperator:
+    """An operator on one pattern: the collection named ``collection``, or the active pattern."""
     bl_options = {"REGISTER", "UNDO"}
+    no_pattern = "no pattern"   # the start of the message when there is none
 
     collection: StringProperty(name="Pattern", description="Name of the pattern collection (the active "
                                "pattern when empty)")
 
+    def pattern_collection(self, context):
+        if self.collection:
+            coll = bpy.data.collections.get(self.collection)
+            if coll is None:
+                raise compute.AddonError(f"no collection named {self.collection!r}")
+            return coll
+        coll = context.scene.seamfit.pattern
+        if coll is None:
+            raise compute.AddonError(f"{self.no_pattern}: import one or pick it in the Patterns panel")
+        return coll
+
+
+class SEAMFIT_OT_confirm_stitches(PatternOperator, bpy.types.Operator):
+    """Sew the accepted proposed stitches into the pattern (the DXF file is never changed)"""
+    bl_idname = "seamfit.confirm_stitches"
+    bl_label = "Confirm Stitches"
+
     def execute(self, context):
         import json
         try:
-            coll = _pattern_collection(context, self.collection)
+            coll = self.pattern_collection(context)
             chosen = [json.loads(p.entry) for p in coll.seamfit.proposals if p.accept]
             if not chosen:
                 raise compute.AddonError(f"{coll.name}: no proposed stitch accepted; tick the ones to sew")
@@ -165,17 +181,16 @@ _FORMATS = {
 }
 
 
-class SEAMFIT_OT_export_pattern(bpy.types.Operator, ExportHelper):
+class SEAMFIT_OT_export_pattern(PatternOperator, bpy.types.Operator, ExportHelper):
     """Export a pattern of the scene (as its curves show it now) to sewpat-1 JSON, SVG or
     DXF-AAMA/ASTM"""
     bl_idname = "seamfit.export_pattern"
     bl_label = "Export Sewing Pattern"
     bl_options = {"REGISTER"}
+    no_pattern = "no pattern to export"
 
     filename_ext = ".json"
     filter_glob: StringProperty(default="*.json;*.svg;*.dxf", options={"HIDDEN"})
-    collection: StringProperty(name="Pattern", description="Name of the pattern collection (the active "
-                               "pattern when empty)")
     format: EnumProperty(name="Format", items=[(k, *v) for k, v in _FORMATS.items()], default="SEWPAT")
     with_base: BoolProperty(name="Include base pattern", default=True,
                             description="For a graded pattern, draw the base pattern under it in the SVG")
@@ -213,20 +228,9 @@ class SEAMFIT_OT_export_pattern(bpy.types.Operator, ExportHelper):
             col.prop(self, "allowance_cm")
             col.prop(self, "corners")
 
-    def _collection(self, context):
-        if self.collection:
-            coll = bpy.data.collections.get(self.collection)
-            if coll is None:
-                raise compute.AddonError(f"no collection named {self.collection!r}")
-            return coll
-        coll = context.scene.seamfit.pattern
-        if coll is None:
-            raise compute.AddonError("no pattern to export: import one or pick it in the Patterns panel")
-        return coll
-
     def execute(self, context):
         try:
-            coll = self._collection(context)
+            coll = self.pattern_collection(context)
             pattern = scene_io.pattern_from_collection(coll)
             written = [self.filepath]
             if self.format == "SVG":
@@ -251,19 +255,15 @@ class SEAMFIT_OT_export_pattern(bpy.types.Operator, ExportHelper):
         return {"FINISHED"}
 
 
-class SEAMFIT_OT_apply_edits(bpy.types.Operator):
+class SEAMFIT_OT_apply_edits(PatternOperator, bpy.types.Operator):
     """Read the edited panel curves back into the pattern, check it as a file is checked,
     and keep it in the scene (the pattern file is never changed)"""
     bl_idname = "seamfit.apply_edits"
     bl_label = "Apply Curve Edits"
-    bl_options = {"REGISTER", "UNDO"}
-
-    collection: StringProperty(name="Pattern", description="Name of the pattern collection (the active "
-                               "pattern when empty)")
 
     def execute(self, context):
         try:
-            coll = _pattern_collection(context, self.collection)
+            coll = self.pattern_collection(context)
             edited, warnings = scene_io.apply_edits(coll)
         except compute.user_errors() as exc:
             self.report({"ERROR"}, str(exc))
@@ -276,19 +276,6 @@ class SEAMFIT_OT_apply_edits(bpy.types.Operator):
             self.report({"INFO"}, f"{coll.name}: applied the edits of {len(edited)} panel(s) "
                                   f"({', '.join(edited)})")
         return {"FINISHED"}
-
-
-def _pattern_collection(context, name: str):
-    """The pattern collection called ``name``, or the active pattern."""
-    if name:
-        coll = bpy.data.collections.get(name)
-        if coll is None:
-            raise compute.AddonError(f"no collection named {name!r}")
-        return coll
-    coll = context.scene.seamfit.pattern
-    if coll is None:
-        raise compute.AddonError("no pattern: import one or pick it in the Patterns panel")
-    return coll
 
 
 class SEAMFIT_OT_check_bodies(bpy.types.Operator):
@@ -388,7 +375,8 @@ class SEAMFIT_OT_compare(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            coll = self._graded(context)
+            coll = scene_io.chosen_collection(self.collection, lambda c: c.seamfit.role == "graded", "graded pattern",
+                                              "no graded pattern to compare: run Adjust Pattern first")
             base_name = coll.get("seamfit_base", "")
             base_coll = bpy.data.collections.get(base_name)
             if base_coll is None:
@@ -409,17 +397,6 @@ class SEAMFIT_OT_compare(bpy.types.Operator):
             return {"CANCELLED"}
         self.report({"INFO"}, f"Compare view of {coll.name} in {out.name!r} (seen from above: numpad 7)")
         return {"FINISHED"}
-
-    def _graded(self, context):
-        if self.collection:
-            coll = bpy.data.collections.get(self.collection)
-            if coll is None or coll.seamfit.role != "graded":
-                raise compute.AddonError(f"no graded pattern named {self.collection!r}")
-            return coll
-        graded = [c for c in bpy.data.collections if c.seamfit.role == "graded"]
-        if not graded:
-            raise compute.AddonError("no graded pattern to compare: run Adjust Pattern first")
-        return graded[-1]
 
 
 def _beside_bodies(context) -> float:
@@ -459,9 +436,11 @@ CLASSES = (SEAMFIT_OT_import_pattern, SEAMFIT_OT_confirm_stitches, SEAMFIT_OT_ex
            SEAMFIT_OT_check_bodies, SEAMFIT_OT_compare, SEAMFIT_OT_clear_cache)
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
+
+
 def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
+    _register_classes()
     bpy.types.TOPBAR_MT_file_import.append(menu_import)
     bpy.types.TOPBAR_MT_file_export.append(menu_export)
 
@@ -469,5 +448,4 @@ def register():
 def unregister():
     bpy.types.TOPBAR_MT_file_export.remove(menu_export)
     bpy.types.TOPBAR_MT_file_import.remove(menu_import)
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

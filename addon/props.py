@@ -29,23 +29,23 @@ class SEAMFIT_PG_panel_info(bpy.types.PropertyGroup):
     area_cm2: FloatProperty(name="Area (cm²)")
 
 
-class SEAMFIT_PG_stitch_info(bpy.types.PropertyGroup):
+class _StitchSides:
+    """The two sides of a stitch, sewn or proposed: their panels and lengths."""
     panel_a: StringProperty(name="Side A")
     panel_b: StringProperty(name="Side B")
     length_a_cm: FloatProperty(name="Length A (cm)")
     length_b_cm: FloatProperty(name="Length B (cm)")
+
+
+class SEAMFIT_PG_stitch_info(_StitchSides, bpy.types.PropertyGroup):
     gathered: BoolProperty(name="Gathered")
 
 
-class SEAMFIT_PG_proposed_stitch(bpy.types.PropertyGroup):
+class SEAMFIT_PG_proposed_stitch(_StitchSides, bpy.types.PropertyGroup):
     """A stitch seamfit proposes for a pattern read from a DXF (which has none): the user
     accepts it, then Confirm Stitches puts the accepted ones into the pattern."""
     entry: StringProperty(description="The proposal as seamfit's seams sidecar entry (JSON)")
     accept: BoolProperty(name="Accept", default=False, description="Sew these two runs together")
-    panel_a: StringProperty(name="Side A")
-    panel_b: StringProperty(name="Side B")
-    length_a_cm: FloatProperty(name="Length A (cm)")
-    length_b_cm: FloatProperty(name="Length B (cm)")
     why: StringProperty(name="Why", description="Why seamfit proposes it")
 
 
@@ -332,9 +332,11 @@ CLASSES = (SEAMFIT_PG_panel_info, SEAMFIT_PG_stitch_info, SEAMFIT_PG_proposed_st
            SEAMFIT_PG_measure, SEAMFIT_PG_run_target, SEAMFIT_PG_settings)
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
+
+
 def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
+    _register_classes()
     bpy.types.Scene.seamfit = PointerProperty(type=SEAMFIT_PG_settings)
     bpy.types.Collection.seamfit = PointerProperty(type=SEAMFIT_PG_pattern_info)
 
@@ -342,8 +344,7 @@ def register():
 def unregister():
     del bpy.types.Collection.seamfit
     del bpy.types.Scene.seamfit
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()
 
 
 _exact = seamfit_settings.typed_decimal

@@ -708,6 +708,20 @@ def build_graded(context, out, name: str, base_collection: str, body: str, made:
 SIZE_RUN_KEY = "seamfit_size_run"  # collection: the sizes of a graded size run (JSON)
 
 
+def chosen_collection(name: str, is_kind, kind: str, none_yet: str):
+    """The collection called ``name``, which must be a ``kind`` (is_kind(c)); with no name,
+    the newest ``kind`` in the file (AddonError ``none_yet`` when there is none)."""
+    if name:
+        coll = bpy.data.collections.get(name)
+        if coll is None or not is_kind(coll):
+            raise compute.AddonError(f"no {kind} named {name!r}")
+        return coll
+    found = [c for c in bpy.data.collections if is_kind(c)]
+    if not found:
+        raise compute.AddonError(none_yet)
+    return found[-1]
+
+
 def build_size_run(context, out, name: str, base_collection: str, made: list, body_objects: dict,
                    edge_length_cm: float = 0.0) -> bpy.types.Collection:
     """A collection holding one graded collection per size of a size run (``out``:

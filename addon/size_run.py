@@ -129,7 +129,8 @@ class SEAMFIT_OT_export_size_run(bpy.types.Operator, ExportHelper):
 
     def execute(self, context):
         try:
-            coll = self._run(context)
+            coll = scene_io.chosen_collection(self.collection, lambda c: scene_io.SIZE_RUN_KEY in c, "size run",
+                                              "no size run to export: run Grade Size Run first")
             patterns, labels, base_index = scene_io.size_run_patterns(coll)
             written = dxf_io.write_size_run(patterns, labels, base_index, self.filepath,
                                             source=patterns[base_index].source_file)
@@ -138,17 +139,6 @@ class SEAMFIT_OT_export_size_run(bpy.types.Operator, ExportHelper):
             return {"CANCELLED"}
         self.report({"INFO"}, f"Exported {coll.name} ({len(labels)} sizes) to {', '.join(written)}")
         return {"FINISHED"}
-
-    def _run(self, context):
-        if self.collection:
-            coll = bpy.data.collections.get(self.collection)
-            if coll is None or scene_io.SIZE_RUN_KEY not in coll:
-                raise compute.AddonError(f"no size run named {self.collection!r}")
-            return coll
-        runs = [c for c in bpy.data.collections if scene_io.SIZE_RUN_KEY in c]
-        if not runs:
-            raise compute.AddonError("no size run to export: run Grade Size Run first")
-        return runs[-1]
 
 
 class SEAMFIT_UL_run_targets(bpy.types.UIList):
@@ -187,11 +177,4 @@ CLASSES = (SEAMFIT_OT_grade_size_run, SEAMFIT_OT_run_target_add, SEAMFIT_OT_run_
            SEAMFIT_OT_run_target_remove, SEAMFIT_OT_export_size_run, SEAMFIT_UL_run_targets, SEAMFIT_PT_size_run)
 
 
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -308,12 +308,9 @@ class SEAMFIT_OT_cancel(bpy.types.Operator):
 CLASSES = (SEAMFIT_OT_build_mesh, SEAMFIT_OT_drape, SEAMFIT_OT_adjust, SEAMFIT_OT_cancel)
 
 
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
+register, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
 
 
 def unregister():
     jobs.cancel_all()
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

@@ -293,11 +293,4 @@ CLASSES = (SEAMFIT_UL_panels, SEAMFIT_UL_stitches, SEAMFIT_UL_proposals, SEAMFIT
            SEAMFIT_PT_measure, SEAMFIT_PT_costs, SEAMFIT_PT_simulation, SEAMFIT_PT_cache, SEAMFIT_PT_run, SEAMFIT_PT_stretch)
 
 
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -4,7 +4,6 @@ flagging on a constructed run, and one-line errors before any work."""
 from __future__ import annotations
 
 import copy
-import hashlib
 import json
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -18,7 +17,8 @@ from seamfit.opt.size_run import base_position, find_jumps, grading_order
 from seamfit.pattern import load_pattern
 from seamfit.pattern.dxf import read_dxf_file
 from seamfit.pattern.dxf_sizes import grade_points, parse_rul
-from common import SAMPLES, SHARED_DATA
+from common import SAMPLES, SHARED_DATA, file_sha256
+from outlines import anchor, outline_gap
 
 PATTERN = SAMPLES / "patterns/gc_pencil_skirt/size06/pattern.json"
 BODIES = SHARED_DATA / "bodies"
@@ -28,18 +28,14 @@ COARSE = ["--edge-length", "5", "--sdf-spacing", "0.01", "--max-iterations", "4"
           "--no-picture", "-q"]
 
 
-def _sha(path):
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     out = tmp_path_factory.mktemp("run") / "skirt"
-    before = [_sha(p) for p in (PATTERN, B0, *TARGETS)]
+    before = [file_sha256(p) for p in (PATTERN, B0, *TARGETS)]
     code = main(["grade-run", str(PATTERN), "--base-body", str(B0), "--target-bodies", *map(str, TARGETS),
                  "--out", str(out), *COARSE])
     assert code == 0
-    assert [_sha(p) for p in (PATTERN, B0, *TARGETS)] == before, "inputs must never be modified"
+    assert [file_sha256(p) for p in (PATTERN, B0, *TARGETS)] == before, "inputs must never be modified"
     return out, json.loads((out / "summary.json").read_text())
 
 
@@ -201,21 +197,8 @@ def test_graded_form_reads_back_per_size(run, tmp_path):
         graded = base if lab == summary["base_size"] else load_pattern(out / lab / "pattern.json")
         assert [p.name for p in back.panels] == [p.name for p in graded.panels]
         for b, g, r in zip(base.panels, graded.panels, back.panels):
-            shift = _anchor(b.outline_cm) - _anchor(g.outline_cm)
+            shift = anchor(b.outline_cm) - anchor(g.outline_cm)
             want = g.outline_cm + shift
             gp = grade_points(b)
             assert np.abs(r.outline_cm[gp] - want[gp]).max() < 0.01, (lab, b.name)
-            assert max(_to_polyline(r.outline_cm, want).max(), _to_polyline(want, r.outline_cm).max()) < 0.2, \
-                (lab, b.name)
-
-
-def _anchor(o):
-    return np.array([0.5 * (o[:, 0].min() + o[:, 0].max()), o[:, 1].max()])
-
-
-def _to_polyline(points, poly):
-    a, b = poly, np.roll(poly, -1, axis=0)
-    ab = b - a
-    ab2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-    t = np.clip(np.einsum("pij,ij->pi", points[:, None, :] - a[None], ab) / ab2, 0, 1)
-    return np.linalg.norm(a[None] + t[..., None] * ab[None] - points[:, None, :], axis=-1).min(axis=1)
+            assert outline_gap(r.outline_cm, want) < 0.2, (lab, b.name)

@@ -11,7 +11,6 @@ import ezdxf
 import numpy as np
 import pytest
 
-from seamfit import cli
 from seamfit.errors import PatternError
 from seamfit.pattern import load_pattern, validate_pattern
 from seamfit.pattern.allowance import cut_line
@@ -19,7 +18,8 @@ from seamfit.pattern.dxf import FIT_TOL_CM, read_dxf_file, write_dxf
 from seamfit.pattern.io import read_pattern_file
 from seamfit.pattern.refit import project_onto_curve
 from seamfit.pattern.seams import apply_sidecar, propose_stitches, sidecar_dict, write_sidecar
-from common import REPO, SHARED_DATA
+from common import REPO, SHARED_DATA, run_cli
+from outlines import polyline_distance
 
 # the shared data sits beside the clone (../shared), as in CI
 DXF_DIR = SHARED_DATA / "dxf"
@@ -34,17 +34,6 @@ def test_the_shared_dxf_samples_are_there():
 @pytest.fixture(scope="module")
 def read_all():
     return {name: read_dxf_file(DXF_DIR / name) for name in FILES}
-
-
-def _polyline_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    a, b = poly, np.roll(poly, -1, axis=0)
-    ab = b - a
-    ab2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-    out = []
-    for p in points:
-        w = np.clip(np.einsum("ij,ij->i", p - a, ab) / ab2, 0, 1)
-        out.append(np.linalg.norm(a + w[:, None] * ab - p, axis=1).min())
-    return np.array(out)
 
 
 def _file_polylines(path: Path, layers: set[str]) -> dict[str, list[np.ndarray]]:
@@ -240,7 +229,7 @@ def test_seam_allowance_on_export_mitred_and_squared(tmp_path):
         np.testing.assert_allclose(q.outline_cm, pn.outline_cm, atol=1e-9)   # the sew line
         cut = np.array(q.extra["dxf"]["cut_line_cm"])
         assert all(e.extra["seam_allowance_cm"] == pytest.approx(1.0) for e in q.edges)
-        d = _polyline_distance(cut, pn.outline_cm)
+        d = polyline_distance(cut, pn.outline_cm)
         lo, hi = pn.outline_cm.min(axis=0), pn.outline_cm.max(axis=0)
         # the rectangle grown by 1 cm; at 90 deg squaring meets at the mitre point too
         assert d.min() == pytest.approx(1.0) and d.max() == pytest.approx(np.sqrt(2.0))
@@ -280,7 +269,7 @@ def test_square_corners_cut_a_sharp_corner_short(tmp_path):
     doc.saveas(tmp_path / "t.dxf")
     pn = read_dxf_file(tmp_path / "t.dxf").pattern.panels[0]
     mitre, square = cut_line(pn, 1.5, "mitre"), cut_line(pn, 1.5, "square")
-    dm, ds = _polyline_distance(mitre, pn.outline_cm), _polyline_distance(square, pn.outline_cm)
+    dm, ds = polyline_distance(mitre, pn.outline_cm), polyline_distance(square, pn.outline_cm)
     for d in (dm, ds):
         assert d.min() == pytest.approx(1.5)            # never inside the allowance
     assert dm.max() == pytest.approx(1.5 / np.sin(np.radians(22.5)))    # the mitre's point
@@ -355,20 +344,14 @@ def test_proposals_match_notched_sides(tmp_path):
 
 # ----------------------------------------------------------------------------- CLI
 
-def _cli(capsys, *argv):
-    code = cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 def test_convert_sewpat_to_dxf_and_back_keeps_stitches_and_placements(tmp_path, capsys):
     out = tmp_path / "skirt.astm.dxf"
-    code, o, err = _cli(capsys, "convert", PENCIL, "--out", out)
+    code, o, err = run_cli(capsys, "convert", PENCIL, "--out", out)
     assert code == 0, err
     assert out.is_file() and (tmp_path / "skirt.seams.json").is_file()
     assert "DXF-ASTM" in o
     back = tmp_path / "back.json"
-    code, o, err = _cli(capsys, "convert", out, "--out", back)
+    code, o, err = run_cli(capsys, "convert", out, "--out", back)
     assert code == 0, err
     p, q = load_pattern(PENCIL), load_pattern(back)
     assert [x.name for x in q.panels] == [x.name for x in p.panels]
@@ -381,12 +364,12 @@ def test_convert_sewpat_to_dxf_and_back_keeps_stitches_and_placements(tmp_path, 
            [(s.a.panel, s.a.range, s.b.panel, s.b.range, s.gathered) for s in p.stitches]
     assert q.garment_type == p.garment_type
     # validate reads the DXF with its sidecar
-    code, o, err = _cli(capsys, "validate", out)
+    code, o, err = run_cli(capsys, "validate", out)
     assert code == 0 and "DXF-ASTM" in o and "stitches: 20" in o and o.rstrip().endswith("OK")
     # an existing output is replaced only with --force; an SVG is written by extension
-    code, _, err = _cli(capsys, "convert", PENCIL, "--out", out)
+    code, _, err = run_cli(capsys, "convert", PENCIL, "--out", out)
     assert code == 2 and "--force" in err and len(err.strip().splitlines()) == 1
-    code, _, err = _cli(capsys, "convert", out, "--out", tmp_path / "skirt.svg")
+    code, _, err = run_cli(capsys, "convert", out, "--out", tmp_path / "skirt.svg")
     assert code == 0 and (tmp_path / "skirt.svg").read_text().lstrip().startswith("<?xml")
 
 
@@ -395,7 +378,7 @@ def test_convert_flavor_option_and_propose_seams(tmp_path, capsys):
     before = src.read_bytes()
     out = tmp_path / "keiko.dxf"
     seams = tmp_path / "keiko.seams.json"
-    code, o, err = _cli(capsys, "convert", src, "--out", out, "--dxf-flavor", "astm", "--propose-seams", seams)
+    code, o, err = run_cli(capsys, "convert", src, "--out", out, "--dxf-flavor", "astm", "--propose-seams", seams)
     assert code == 0, err
     assert "DXF-ASTM" in o and read_dxf_file(out).flavor == "astm"
     d = json.loads(seams.read_text())
@@ -403,25 +386,25 @@ def test_convert_flavor_option_and_propose_seams(tmp_path, capsys):
     for s in d["stitches"]:
         s["confirmed"] = True
     seams.write_text(json.dumps(d))
-    code, o, err = _cli(capsys, "convert", out, "--seams", seams, "--out", tmp_path / "keiko.json")
+    code, o, err = run_cli(capsys, "convert", out, "--seams", seams, "--out", tmp_path / "keiko.json")
     assert code == 0, err
     assert len(load_pattern(tmp_path / "keiko.json").stitches) == len(d["stitches"])
     assert src.read_bytes() == before
 
 
 def test_convert_refuses_unknown_output_and_its_own_input(tmp_path, capsys):
-    code, _, err = _cli(capsys, "convert", PENCIL, "--out", tmp_path / "x.pdf")
+    code, _, err = run_cli(capsys, "convert", PENCIL, "--out", tmp_path / "x.pdf")
     assert code == 2 and "x.pdf" in err and ".pdf" in err
     src = tmp_path / "p.dxf"
     write_dxf(load_pattern(PENCIL), src)
-    code, _, err = _cli(capsys, "convert", src, "--out", src, "--force")
+    code, _, err = run_cli(capsys, "convert", src, "--out", src, "--force")
     assert code == 2 and "would replace the input" in err
 
 
 # ----------------------------------------------------------------------------- bad files
 
 def _one_line_error(capsys, path, *names, extra=(), at_fault=None):
-    code, out, err = _cli(capsys, "validate", path, *extra)
+    code, out, err = run_cli(capsys, "validate", path, *extra)
     lines = err.strip().splitlines()
     assert code == 2 and len(lines) == 1, err
     assert "Traceback" not in err and str(at_fault or path) in lines[0]
@@ -486,8 +469,8 @@ def test_placement_anchors_survive_the_sidecar(tmp_path, capsys):
     # no landmark names, so the sidecar gives its point too and reading puts the landmark back
     src = REPO / "sample_files/patterns/fs_bodice/size06/pattern.json"
     dxf, back = tmp_path / "bodice.astm.dxf", tmp_path / "back.json"
-    assert _cli(capsys, "convert", src, "--out", dxf)[0] == 0
-    assert _cli(capsys, "convert", dxf, "--out", back)[0] == 0
+    assert run_cli(capsys, "convert", src, "--out", dxf)[0] == 0
+    assert run_cli(capsys, "convert", dxf, "--out", back)[0] == 0
     p, q = load_pattern(src), load_pattern(back)
     for a, b in zip(p.panels, q.panels):
         assert b.placement.extra == a.placement.extra and b.placement.side == a.placement.side
@@ -497,7 +480,7 @@ def test_placement_anchors_survive_the_sidecar(tmp_path, capsys):
     first = next(iter(side["placements"]))
     del side["placements"][first]["anchor_landmark_at_cm"]
     write_sidecar(tmp_path / "bodice.seams.json", side)
-    code, _, err = _cli(capsys, "validate", dxf)
+    code, _, err = run_cli(capsys, "validate", dxf)
     assert code == 2 and f"placement of {first!r}: anchor_landmark" in err and "is not a landmark" in err
     assert len(err.strip().splitlines()) == 1
 
@@ -509,7 +492,7 @@ def test_grading_a_dxf_without_stitches_or_placements_stops_before_any_work(tmp_
     bodies = DXF_DIR.parent / "bodies"
     argv = ["grade", dxf, "--base-body", bodies / "women_size06.obj", "--target-body", bodies / "women_size10.obj",
             "--out", tmp_path / "g", "-q"]
-    code, _, err = _cli(capsys, *argv)
+    code, _, err = run_cli(capsys, *argv)
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert "no stitches (DXF has none): confirm them in the seams sidecar keiko.seams.json" in err
     # stitches confirmed, but no placements yet
@@ -517,9 +500,9 @@ def test_grading_a_dxf_without_stitches_or_placements_stops_before_any_work(tmp_
     side = sidecar_dict(p, propose_stitches(p)[:1])
     side["stitches"][0]["confirmed"] = True
     write_sidecar(tmp_path / "keiko.seams.json", side)
-    code, _, err = _cli(capsys, *argv)
+    code, _, err = run_cli(capsys, *argv)
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert "no placement for 2 panel(s) ('Detail', 'Detail 2'; DXF has none)" in err and "keiko.seams.json" in err
     assert not (tmp_path / "g").exists()
     # meshing a flat DXF needs neither
-    assert _cli(capsys, "mesh", dxf, "--out", tmp_path / "m", "-q")[0] == 0
+    assert run_cli(capsys, "mesh", dxf, "--out", tmp_path / "m", "-q")[0] == 0

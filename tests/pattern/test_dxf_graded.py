@@ -4,9 +4,6 @@ the API and ``seamfit convert/validate --rul``; a bad rule table is a one-line e
 grade-run's own output is read back in tests/opt/test_grade_run.py."""
 from __future__ import annotations
 
-import copy
-import hashlib
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +14,8 @@ from seamfit.pattern import load_pattern
 from seamfit.pattern.dxf import read_dxf_file
 from seamfit.pattern.dxf_graded import proportional_moves, read_graded_dxf
 from seamfit.pattern.dxf_sizes import grade_points, read_dxf_sizes, write_graded_dxf
-from common import SHARED_DATA
+from common import SHARED_DATA, file_sha256
+from outlines import anchor, outline_gap, scaled_pattern
 
 DXF_DIR = SHARED_DATA / "dxf"
 SOURCE = DXF_DIR / "modell_2.astm.dxf"            # three pieces with cut lines, notches, grain lines
@@ -25,37 +23,10 @@ LABELS = ["S", "M", "L"]
 SCALES = [(0.96, 0.98), (1.0, 1.0), (1.05, 1.02)]  # (width, length) of each size against M
 
 
-def _scaled(pattern, fx, fy):
-    p = copy.deepcopy(pattern)
-    f = np.array([fx, fy])
-    for panel in p.panels:
-        panel.outline_cm = panel.outline_cm * f
-        for e in panel.edges:
-            e.p0, e.p1 = tuple(np.multiply(e.p0, f)), tuple(np.multiply(e.p1, f))
-            e.ctrl = [tuple(np.multiply(c, f)) for c in e.ctrl]
-    return p
-
-
-def _anchor(o):
-    return np.array([0.5 * (o[:, 0].min() + o[:, 0].max()), o[:, 1].max()])
-
-
-def _distance(points, poly):
-    a, b = poly, np.roll(poly, -1, axis=0)
-    ab = b - a
-    ab2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-    t = np.clip(np.einsum("pij,ij->pi", points[:, None, :] - a[None], ab) / ab2, 0, 1)
-    return np.linalg.norm(a[None] + t[..., None] * ab[None] - points[:, None, :], axis=-1).min(axis=1)
-
-
-def _sha(path):
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     base = read_dxf_file(SOURCE).pattern
-    sizes = [base if s == (1.0, 1.0) else _scaled(base, *s) for s in SCALES]
+    sizes = [base if s == (1.0, 1.0) else scaled_pattern(base, s) for s in SCALES]
     folder = tmp_path_factory.mktemp("graded")
     write_graded_dxf(folder / "modell.dxf", folder / "modell.rul", sizes, LABELS, 1)
     return folder, sizes
@@ -73,12 +44,12 @@ def test_each_size_reads_back_with_its_grade_points_in_place(run):
             assert g.extra["size"] == lab
             assert not any(t["text"].startswith("#") for t in g.extra["dxf"].get("texts", []))
             # the RUL moves are in the top-centre frame: the size's points relative to the base's top-centre
-            want = a.outline_cm - _anchor(a.outline_cm) + _anchor(b.outline_cm)
+            want = a.outline_cm - anchor(a.outline_cm) + anchor(b.outline_cm)
             gp = grade_points(b)
             assert np.abs(g.outline_cm[gp] - want[gp]).max() < 0.01, (lab, a.name)     # 0.1 mm
             # between grade points the points follow in proportion to arc length, which a curve scaled
             # more across than along does not quite do: measured up to 0.99 mm (size L, 'Detail')
-            assert _distance(g.outline_cm, want).max() < 0.12 and _distance(want, g.outline_cm).max() < 0.12
+            assert outline_gap(g.outline_cm, want) < 0.12
             assert g.corners == b.corners and len(g.edges) == len(b.edges)
             assert [n["vertex"] for n in g.extra.get("notches", [])] == [n["vertex"] for n in b.extra.get("notches", [])]
             # the sample size keeps its cut line; a graded size's is rebuilt from the allowances
@@ -97,7 +68,7 @@ def test_proportional_moves_between_grade_points():
 def test_convert_and_validate_take_the_rule_table(run, tmp_path, capsys):
     folder, sizes = run
     dxf, rul = folder / "modell.dxf", folder / "modell.rul"
-    before = (_sha(dxf), _sha(rul))
+    before = (file_sha256(dxf), file_sha256(rul))
     out = tmp_path / "L.json"
     assert cli.main(["convert", str(dxf), "--rul", str(rul), "--size", "L", "--out", str(out), "-q"]) == 0
     api = read_graded_dxf(dxf, rul).patterns["L"]
@@ -113,7 +84,7 @@ def test_convert_and_validate_take_the_rule_table(run, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "a base DXF graded by modell.rul to 3 sizes (S, M, L; sample size M)" in err and "\n" not in err
     assert "seamfit convert modell.dxf --rul modell.rul --size NAME" in err and not (tmp_path / "x.json").exists()
-    assert (_sha(dxf), _sha(rul)) == before, "inputs are never modified"
+    assert (file_sha256(dxf), file_sha256(rul)) == before, "inputs are never modified"
 
 
 def _bad(folder, tmp_path, edit):
@@ -181,6 +152,6 @@ def test_rules_on_the_cut_line_go_to_the_seam_corner(run, tmp_path):
     base = sizes[1]
     for lab, src in zip(LABELS, sizes):
         for b, a, g in zip(base.panels, src.panels, back.patterns[lab].panels):
-            want = a.outline_cm - _anchor(a.outline_cm) + _anchor(b.outline_cm)
+            want = a.outline_cm - anchor(a.outline_cm) + anchor(b.outline_cm)
             # the rules were measured at the seam corners: mapped back there, each corner is in place
             assert np.abs(g.outline_cm[b.corners] - want[b.corners]).max() < 0.01, (lab, a.name)

@@ -4,9 +4,7 @@ nest.dxf) reads back as one pattern per size; ``seamfit convert`` and ``validate
 from __future__ import annotations
 
 import copy
-import hashlib
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +15,8 @@ from seamfit.pattern import load_pattern
 from seamfit.pattern.dxf import read_dxf_file, write_dxf
 from seamfit.pattern.dxf_sizes import one_size, read_dxf_sizes, write_size_run_dxf
 from seamfit.pattern.io import read_pattern_file
-from common import REPO, SHARED_DATA
+from common import REPO, SHARED_DATA, file_sha256
+from outlines import outline_gap, polyline_distance, scaled_pattern
 
 DXF_DIR = SHARED_DATA / "dxf"
 SOURCE = DXF_DIR / "modell_2.astm.dxf"            # three pieces, all named "Detail", with cut lines
@@ -25,42 +24,14 @@ LABELS = ["S", "M", "L"]
 SCALES = [0.96, 1.0, 1.04]                         # stand-ins for graded sizes around the sample M
 
 
-def _scaled(pattern, f):
-    p = copy.deepcopy(pattern)
-    for panel in p.panels:
-        panel.outline_cm = panel.outline_cm * f
-        for e in panel.edges:                       # the curves move with the outline (cut lines rebuilt)
-            e.p0, e.p1 = tuple(np.multiply(e.p0, f)), tuple(np.multiply(e.p1, f))
-            e.ctrl = [tuple(np.multiply(c, f)) for c in e.ctrl]
-        if panel.extra.get("grain_line_cm"):
-            panel.extra["grain_line_cm"] = (np.asarray(panel.extra["grain_line_cm"]) * f).tolist()
-    return p
-
-
-def _sha(path):
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     """A three-size file built from Valentina's single-size export."""
     base = read_dxf_file(SOURCE).pattern
-    sizes = [base if f == 1.0 else _scaled(base, f) for f in SCALES]
+    sizes = [base if f == 1.0 else scaled_pattern(base, f) for f in SCALES]
     path = tmp_path_factory.mktemp("sizes") / "tshirt.astm.dxf"
     write_size_run_dxf(path, sizes, LABELS, 1)
     return path, sizes
-
-
-def _distance(points, poly):
-    """Each point's distance to the closed polyline."""
-    a, b = poly, np.roll(poly, -1, axis=0)
-    ab = b - a
-    ab2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-    out = []
-    for p in points:
-        w = np.clip(np.einsum("ij,ij->i", p - a, ab) / ab2, 0, 1)
-        out.append(np.linalg.norm(a + w[:, None] * ab - p, axis=1).min())
-    return np.array(out)
 
 
 def test_each_size_reads_back_within_a_tenth_of_a_millimetre(run):
@@ -74,7 +45,7 @@ def test_each_size_reads_back_within_a_tenth_of_a_millimetre(run):
         for a, b in zip(src.panels, got.panels):
             assert b.extra["size"] == lab
             # every point of each outline lies on the other (the reader adds points on long segments)
-            worst = max(_distance(a.outline_cm, b.outline_cm).max(), _distance(b.outline_cm, a.outline_cm).max())
+            worst = outline_gap(a.outline_cm, b.outline_cm)
             assert worst < 0.01, (lab, a.name, worst)
             assert len(b.corners) == len(a.corners) and len(b.edges) == len(a.edges)
             if a.extra.get("grain_line_cm"):
@@ -101,7 +72,7 @@ def test_one_pattern_needs_a_size_and_the_error_lists_them(run):
 def test_a_piece_without_its_size_in_a_multi_size_file_is_named(tmp_path):
     base = read_dxf_file(DXF_DIR / "Keiko_skirt.astm.dxf").pattern
     two = copy.deepcopy(base)
-    big = _scaled(base, 1.05)
+    big = scaled_pattern(base, 1.05)
     two.panels[0].extra["size"] = "38"
     two.panels[1].extra.pop("size", None)
     big.panels[0].extra["size"] = big.panels[1].extra["size"] = "40"
@@ -128,7 +99,7 @@ def test_validate_checks_every_size_or_the_one_chosen(run, capsys):
 
 def test_convert_picks_a_size_nests_them_all_or_keeps_them_all(run, tmp_path, capsys):
     path, sizes = run
-    before = _sha(path)
+    before = file_sha256(path)
     out = tmp_path / "one.json"
     assert cli.main(["convert", str(path), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
@@ -137,7 +108,7 @@ def test_convert_picks_a_size_nests_them_all_or_keeps_them_all(run, tmp_path, ca
     assert cli.main(["convert", str(path), "--size", "L", "--out", str(out), "-q"]) == 0
     got = load_pattern(out)
     for a, b in zip(sizes[2].panels, got.panels):
-        assert _distance(a.outline_cm, b.outline_cm).max() < 0.01
+        assert polyline_distance(a.outline_cm, b.outline_cm).max() < 0.01
     # every size nested in one SVG, the sample size first (black)
     svg = tmp_path / "nest.svg"
     assert cli.main(["convert", str(path), "--out", str(svg), "-q"]) == 0
@@ -151,10 +122,10 @@ def test_convert_picks_a_size_nests_them_all_or_keeps_them_all(run, tmp_path, ca
     assert back.labels == LABELS and back.sample_size == "M"
     for lab, src in zip(LABELS, sizes):
         for a, b in zip(src.panels, back.patterns[lab].panels):
-            assert _distance(a.outline_cm, b.outline_cm).max() < 0.01
+            assert polyline_distance(a.outline_cm, b.outline_cm).max() < 0.01
     assert cli.main(["convert", str(path), "--out", str(tmp_path / "x.aama.dxf")]) == 2
     assert "choose one size with --size NAME (S, M, L)" in capsys.readouterr().err
-    assert _sha(path) == before, "inputs are never modified"
+    assert file_sha256(path) == before, "inputs are never modified"
 
 
 def test_size_on_a_file_without_sizes_is_an_error(tmp_path, capsys):

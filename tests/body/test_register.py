@@ -17,7 +17,7 @@ import pytest
 from seamfit.body import Body, RegistrationError, check_registrable, hm08_landmarks, load_body, save_body
 from seamfit.body.closest import SurfaceIndex, closest_on_triangles
 from seamfit.cli import main
-from common import SAMPLES
+from common import SAMPLES, run_cli as cli
 
 BODIES = SAMPLES / "bodies"
 BASE = BODIES / "women_size06.obj"
@@ -34,12 +34,6 @@ def remeshed(body: Body) -> Body:
     import gpytoolbox
     V, F = gpytoolbox.remesh_botsch(body.vertices, body.faces.astype(np.int32), i=10, h=0.012, project=True)
     return Body(V, F, name="remeshed")
-
-
-def cli(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def assert_one_line_error(code, err, *words):

@@ -6,9 +6,7 @@ within 0.1 mm of each size's pattern. A bad value in the table is a one-line err
 any body is made."""
 from __future__ import annotations
 
-import hashlib
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +15,7 @@ from seamfit.body import load_measurement_sets
 from seamfit.cli import main
 from seamfit.pattern import load_pattern
 from seamfit.pattern.dxf_sizes import read_dxf_sizes
-from common import DATA, REPO, SHARED_DATA
+from common import DATA, REPO, SHARED_DATA, file_sha256
 
 CHART = DATA / "valentina_women.vst"
 PATTERN = REPO / "sample_files/patterns/gc_pencil_skirt/size06/pattern.json"
@@ -25,10 +23,6 @@ BODIES = SHARED_DATA / "bodies"
 B0 = BODIES / "women_size06.obj"
 COARSE = ["--edge-length", "5", "--sdf-spacing", "0.01", "--max-iterations", "4", "--checkpoint-every", "2",
           "--no-picture", "-q"]
-
-
-def _sha(path):
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def test_the_table_reads_as_valentina_defines_it():
@@ -43,10 +37,10 @@ def test_the_table_reads_as_valentina_defines_it():
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     out = tmp_path_factory.mktemp("chart") / "skirt"
-    before = [_sha(p) for p in (PATTERN, B0, CHART)]
+    before = [file_sha256(p) for p in (PATTERN, B0, CHART)]
     assert main(["grade-run", str(PATTERN), "--base-body", str(B0), "--size-chart", str(CHART),
                  "--out", str(out), *COARSE]) == 0
-    assert [_sha(p) for p in (PATTERN, B0, CHART)] == before, "inputs are never modified"
+    assert [file_sha256(p) for p in (PATTERN, B0, CHART)] == before, "inputs are never modified"
     return out, json.loads((out / "summary.json").read_text())
 
 

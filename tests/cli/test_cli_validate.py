@@ -9,7 +9,7 @@ import pytest
 
 from seamfit import cli
 from seamfit.pattern import load_pattern, save_pattern
-from common import SAMPLES
+from common import SAMPLES, command_runner
 
 PATTERNS = SAMPLES / "patterns"
 PENCIL = PATTERNS / "gc_pencil_skirt/size06/pattern.json"
@@ -18,14 +18,7 @@ GC_SPEC = PATTERNS / "gc_pencil_skirt/size06/native/gc_pencil_skirt_specificatio
 
 @pytest.fixture
 def run(monkeypatch, capsys):
-    # only this subcommand: the test does not depend on the others being importable
-    monkeypatch.setattr(cli, "COMMANDS", ("validate",))
-
-    def _run(*argv):
-        code = cli.main(["validate", *map(str, argv)])
-        out, err = capsys.readouterr()
-        return code, out, err
-    return _run
+    return command_runner(monkeypatch, capsys, "validate")
 
 
 def test_valid_sewpat_prints_summary(run):

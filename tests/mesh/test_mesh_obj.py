@@ -7,10 +7,10 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from seamfit import cli
 from seamfit.mesh import build_sewn_mesh, read_obj, read_obj_positions, write_obj
+from seamfit.mesh.obj import obj_header
 from seamfit.pattern import load_pattern
-from common import SAMPLES
+from common import SAMPLES, command_runner
 
 PATTERNS = SAMPLES / "patterns"
 CIRCLE = PATTERNS / "gc_circle_skirt/size06/pattern.json"
@@ -58,11 +58,7 @@ def _savetxt_obj(mesh, x) -> str:
     one call: the writer must still produce these exact bytes."""
     import io
     out = io.StringIO()
-    out.write("# seamfit sewn mesh: v in metres, vt = pattern (u, v) in cm, one group per panel\n")
-    if mesh.source_file:
-        out.write(f"# pattern {mesh.source_file}\n")
-    out.write(f"# edge length {mesh.edge_length_cm:g} cm, {mesh.n_vertices} vertices, "
-              f"{len(mesh.triangles)} triangles, {len(mesh.sewing_pairs)} sewing pairs\n")
+    out.write(obj_header(mesh))
     np.savetxt(out, x, fmt="v %.17g %.17g %.17g")
     np.savetxt(out, mesh.uv_cm, fmt="vt %.17g %.17g")
     for k, name in enumerate(mesh.panel_names):
@@ -85,14 +81,7 @@ def test_obj_bytes_match_row_by_row_formatting(mesh, tmp_path):
 
 @pytest.fixture
 def run(monkeypatch, capsys):
-    # only this subcommand: the test does not depend on the others being importable
-    monkeypatch.setattr(cli, "COMMANDS", ("mesh",))
-
-    def _run(*argv):
-        code = cli.main(["mesh", *map(str, argv)])
-        out, err = capsys.readouterr()
-        return code, out, err
-    return _run
+    return command_runner(monkeypatch, capsys, "mesh")
 
 
 def test_mesh_command_writes_obj_svg_report(run, tmp_path):

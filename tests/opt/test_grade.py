@@ -1,24 +1,18 @@
 """The whole grading run (paper Algorithm 1) on a sample garment, coarse enough for CI:
 the pencil skirt graded from the base body (size 6) to size 10, through the CLI."""
-import hashlib
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from seamfit.cli import main
 from seamfit.pattern import load_pattern
-from common import SAMPLES
+from common import SAMPLES, file_sha256
 
 PATTERN = SAMPLES / "patterns/gc_pencil_skirt/size06/pattern.json"
 TRUTH = SAMPLES / "patterns/gc_pencil_skirt/size10/pattern.json"
 B0 = SAMPLES / "bodies/women_size06.obj"
 B1 = SAMPLES / "bodies/women_size10.obj"
-
-
-def _sha(path):
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def _grade(out, *extra):
@@ -42,9 +36,9 @@ def test_fail_unconverged_exits_1_with_the_results_written(tmp_path):
 @pytest.fixture(scope="module")
 def graded(tmp_path_factory):
     out = tmp_path_factory.mktemp("grade")
-    before = _sha(PATTERN)
+    before = file_sha256(PATTERN)
     rep = _grade(out, "--report-base-pattern")
-    assert _sha(PATTERN) == before, "the input pattern must never be modified"
+    assert file_sha256(PATTERN) == before, "the input pattern must never be modified"
     return out, rep
 
 

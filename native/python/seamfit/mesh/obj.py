@@ -31,6 +31,14 @@ class ObjData:
     groups: list[tuple[str, int, int]]    # (name, first face, end face)
 
 
+def obj_header(mesh) -> str:
+    """The comment lines atop a sewn mesh's OBJ file: what its coordinates are, its source, its sizes."""
+    source = f"# pattern {mesh.source_file}\n" if mesh.source_file else ""
+    return ("# seamfit sewn mesh: v in metres, vt = pattern (u, v) in cm, one group per panel\n" + source +
+            f"# edge length {mesh.edge_length_cm:g} cm, {mesh.n_vertices} vertices, "
+            f"{len(mesh.triangles)} triangles, {len(mesh.sewing_pairs)} sewing pairs\n")
+
+
 def write_obj(path: str | Path, mesh, positions: np.ndarray | None = None) -> Path:
     x = mesh.x0 if positions is None else np.asarray(positions, dtype=float)
     if x.shape != (mesh.n_vertices, 3):
@@ -38,11 +46,7 @@ def write_obj(path: str | Path, mesh, positions: np.ndarray | None = None) -> Pa
     if not np.all(np.isfinite(x)):
         raise ValueError("positions hold non-finite values; not written")
     out = io.StringIO()
-    out.write("# seamfit sewn mesh: v in metres, vt = pattern (u, v) in cm, one group per panel\n")
-    if mesh.source_file:
-        out.write(f"# pattern {mesh.source_file}\n")
-    out.write(f"# edge length {mesh.edge_length_cm:g} cm, {mesh.n_vertices} vertices, "
-              f"{len(mesh.triangles)} triangles, {len(mesh.sewing_pairs)} sewing pairs\n")
+    out.write(obj_header(mesh))
     out.write(_lines("v %.17g %.17g %.17g\n", np.asarray(x, dtype=float)))
     out.write(_lines("vt %.17g %.17g\n", np.asarray(mesh.uv_cm, dtype=float)))
     for k, name in enumerate(mesh.panel_names):

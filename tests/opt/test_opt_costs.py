@@ -15,11 +15,6 @@ def mesh():
     return S.two_panels()
 
 
-@pytest.fixture(scope="module")
-def param(mesh):
-    return Parametrization(mesh)
-
-
 def fd_check(f, grad, x0, rng, n_dirs=6, eps=1e-6, rtol=2e-6):
     """Directional derivatives of f at x0 (central differences) against grad . d."""
     worst = 0.0

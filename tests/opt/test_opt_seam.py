@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from seamfit.mesh import build_sewn_mesh
-from seamfit.opt import Parametrization, SeamLength, Strengths, seam_segments
+from seamfit.opt import SeamLength, Strengths, seam_segments
 from seamfit.opt.objective import Objective
 from seamfit.pattern import load_pattern
 from common import SAMPLES
@@ -16,11 +16,6 @@ PATTERN = SAMPLES / "patterns/gc_pencil_skirt/size06/pattern.json"
 @pytest.fixture(scope="module")
 def mesh():
     return build_sewn_mesh(load_pattern(PATTERN), edge_length_cm=4.0)
-
-
-@pytest.fixture(scope="module")
-def param(mesh):
-    return Parametrization(mesh)
 
 
 def reference(theta, seg, rho, delta):

@@ -14,7 +14,7 @@ import pytest
 
 from seamfit.errors import SolveError
 from seamfit.mesh import build_sewn_mesh
-from seamfit.opt import Parametrization, Regularizers, SeamLength
+from seamfit.opt import Regularizers, SeamLength
 from seamfit.pattern import load_pattern
 from common import SAMPLES
 
@@ -25,11 +25,6 @@ PATTERN = SAMPLES / "patterns/gc_pencil_skirt/size06/pattern.json"
 def mesh():
     # 10K triangles, 674 boundary entries: three blocks of the reductions, a 14 MiB P^-1.
     return build_sewn_mesh(load_pattern(PATTERN), edge_length_cm=1.1)
-
-
-@pytest.fixture(scope="module")
-def param(mesh):
-    return Parametrization(mesh)
 
 
 def rel(a, b) -> float:

@@ -73,17 +73,8 @@ else:
     def grading_scene(scene):
         """The sample skirt imported, base and target bodies set, coarse grading settings
         (those of helpers.GRADE_ARGS): the scene settings, ready for Adjust."""
-        from helpers import (BODY_BASE, BODY_TARGET, GRADE_EDGE_CM, GRADE_EVERY, GRADE_OUTER, GRADE_SDF_M,
-                             PENCIL, import_obj)
-        bpy.ops.seamfit.import_pattern(filepath=str(PENCIL))
-        s = scene.seamfit
-        s.base_body = import_obj(BODY_BASE, "women_size06")
-        s.target_body = import_obj(BODY_TARGET, "women_size10")
-        s.edge_length_cm = GRADE_EDGE_CM
-        s.sdf_spacing_mm = 1000 * GRADE_SDF_M
-        s.iterations = GRADE_OUTER
-        s.exact_every = GRADE_EVERY
-        return s
+        from helpers import grading_scene_for
+        return grading_scene_for(scene)
 
     @pytest.fixture()
     def tmp_out(tmp_path) -> Path:

@@ -81,6 +81,27 @@ def import_obj(path: Path, name: str):
     return new[0]
 
 
+def scene_for(scene, edge_length_cm: float, sdf_spacing_mm: float, pattern: Path = PENCIL, target: bool = False):
+    """``pattern`` imported and the base body (with ``target``, the target body too) set,
+    at this mesh and body-field resolution: the scene settings, ready for Drape."""
+    bpy.ops.seamfit.import_pattern(filepath=str(pattern))
+    s = scene.seamfit
+    s.base_body = import_obj(BODY_BASE, "women_size06")
+    if target:
+        s.target_body = import_obj(BODY_TARGET, "women_size10")
+    s.edge_length_cm = edge_length_cm
+    s.sdf_spacing_mm = sdf_spacing_mm
+    return s
+
+
+def grading_scene_for(scene, pattern: Path = PENCIL):
+    """scene_for at the coarse grading of GRADE_ARGS, both bodies set: ready for Adjust."""
+    s = scene_for(scene, GRADE_EDGE_CM, 1000 * GRADE_SDF_M, pattern, target=True)
+    s.iterations = GRADE_OUTER
+    s.exact_every = GRADE_EVERY
+    return s
+
+
 def window_override():
     w = bpy.context.window_manager.windows[0]
     return bpy.context.temp_override(window=w, screen=w.screen, area=w.screen.areas[0])

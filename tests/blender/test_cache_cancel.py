@@ -8,17 +8,12 @@ from pathlib import Path
 import bpy
 import pytest
 
-from helpers import BODY_BASE, MODULE, PENCIL, addon, import_obj, scene_fingerprint
+from helpers import MODULE, addon, scene_fingerprint, scene_for
 
 
 @pytest.fixture()
 def setup(scene):
-    bpy.ops.seamfit.import_pattern(filepath=str(PENCIL))
-    s = scene.seamfit
-    s.base_body = import_obj(BODY_BASE, "women_size06")
-    s.edge_length_cm = 4.0
-    s.sdf_spacing_mm = 5.0
-    return s
+    return scene_for(scene, 4.0, 5.0)
 
 
 def _disk():

@@ -10,20 +10,15 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import (BODY_BASE, PENCIL, addon, extension_site_packages, import_obj,
-                     object_fingerprint, scene_fingerprint, undo, undo_push)
+from helpers import (BODY_BASE, PENCIL, addon, extension_site_packages, object_fingerprint, scene_fingerprint,
+                     scene_for, undo, undo_push)
 
 EDGE_CM, SDF_M = 4.0, 0.005     # coarse, so a drape takes seconds
 
 
 @pytest.fixture()
 def setup(scene):
-    bpy.ops.seamfit.import_pattern(filepath=str(PENCIL))
-    s = scene.seamfit
-    s.base_body = import_obj(BODY_BASE, "women_size06")
-    s.edge_length_cm = EDGE_CM
-    s.sdf_spacing_mm = 1000 * SDF_M
-    return s
+    return scene_for(scene, EDGE_CM, 1000 * SDF_M)
 
 
 def _garment(coll):

@@ -4,8 +4,7 @@ girth nearer the target body's than the base body's), with the numbers."""
 import bpy
 import pytest
 
-from helpers import (BODY_BASE, BODY_TARGET, GRADE_EDGE_CM, GRADE_EVERY, GRADE_OUTER, GRADE_SDF_M, PENCIL,
-                     addon, import_obj)
+from helpers import PENCIL, addon, grading_scene_for
 
 PENCIL_10 = PENCIL.parents[1] / "size10" / "pattern.json"
 
@@ -30,14 +29,7 @@ def test_the_rule_on_measured_numbers(installed):
 
 
 def test_adjust_warns_for_a_pattern_of_another_body(scene):
-    bpy.ops.seamfit.import_pattern(filepath=str(PENCIL_10))
-    s = scene.seamfit
-    s.base_body = import_obj(BODY_BASE, "women_size06")
-    s.target_body = import_obj(BODY_TARGET, "women_size10")
-    s.edge_length_cm = GRADE_EDGE_CM
-    s.sdf_spacing_mm = 1000 * GRADE_SDF_M
-    s.iterations = GRADE_OUTER
-    s.exact_every = GRADE_EVERY
+    grading_scene_for(scene, PENCIL_10)
     assert bpy.ops.seamfit.adjust() == {"FINISHED"}      # a warning, not a refusal
     (coll,) = [c for c in bpy.data.collections if c.seamfit.role == "graded"]
     lines = [w.name for w in coll.seamfit.warnings]

@@ -7,16 +7,12 @@ import numpy as np
 import pytest
 from mathutils.bvhtree import BVHTree
 
-from helpers import BODY_BASE, PENCIL, addon, import_obj
+from helpers import addon, scene_for
 
 
 @pytest.fixture()
 def draped(scene):
-    bpy.ops.seamfit.import_pattern(filepath=str(PENCIL))
-    s = scene.seamfit
-    s.base_body = import_obj(BODY_BASE, "women_size06")
-    s.edge_length_cm = 4.0
-    s.sdf_spacing_mm = 5.0
+    s = scene_for(scene, 4.0, 5.0)
     assert bpy.ops.seamfit.drape() == {"FINISHED"}
     (coll,) = [c for c in bpy.data.collections if c.seamfit.role == "drape"]
     (garment,) = [o for o in coll.objects if o.type == "MESH" and "stretch_ratio" in o.data.attributes]

@@ -51,6 +51,10 @@ def assert_refused(code, err, secs, command, *names, validate_exit=(1, 2)):
     assert secs < FAST_S, secs
 
 
+# A character device: read, it would never end.
+A_DEVICE = (lambda tmp: Path("/dev/zero"), ["is a device"])
+
+
 def pencil() -> dict:
     return json.loads(PENCIL.read_text())
 
@@ -166,27 +170,8 @@ BAD_PATTERNS = {
     "100,001 outline vertices": (_many_outline_vertices, ["outline vertices", "SEAMFIT_MAX_OUTLINE_VERTICES"]),
     "501 panels": (_many_panels, ["501 panels", "SEAMFIT_MAX_PANELS"]),
     "GarmentCode vertex at 1e6 cm": (_gc_far_vertex, ["panel 'skirt_front'", "SEAMFIT_MAX_OUTLINE_VERTICES"]),
-    "a device (/dev/zero)": (lambda tmp: Path("/dev/zero"), ["is a device"]),
+    "a device (/dev/zero)": A_DEVICE,
 }
-
-
-def pattern_argv(command, pattern, out):
-    return {"validate": ["validate", pattern],
-            "mesh": ["mesh", pattern, "--out", out, "--edge-length", "4"],
-            "drape": ["drape", pattern, B0, "--out", out, "--edge-length", "4"],
-            "grade": ["grade", pattern, "--base-body", B0, "--target-body", B1, "--out", out, *QUICK]}[command]
-
-
-@pytest.mark.parametrize("command", ["validate", "mesh", "drape", "grade"])
-@pytest.mark.parametrize("case", list(BAD_PATTERNS))
-def test_bad_pattern(tmp_path, capsys, monkeypatch, command, case):
-    monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
-    make, names = BAD_PATTERNS[case]
-    pattern = make(tmp_path)
-    out = tmp_path / "out"
-    code, _, err, secs = run(capsys, *pattern_argv(command, pattern, out))
-    assert_refused(code, err, secs, command, pattern, *names)
-    assert not out.exists() and not list(tmp_path.glob(".out*"))
 
 
 # ----------------------------------------------------------------------------- bad bodies
@@ -231,28 +216,48 @@ BAD_BODIES = {
     "PLY list count -1 (ascii)": (_ply_ascii_negative, ["PLY line 13", "'face'"]),
     "PLY element count -3": (_negative_element_count, ["PLY header line 3", "negative element count"]),
     "1e308 coordinates": (_huge_coordinates, ["vertex 0", "1000 km) from the origin"]),
-    "a device (/dev/zero)": (lambda tmp: Path("/dev/zero"), ["is a device"]),
+    "a device (/dev/zero)": A_DEVICE,
 }
 
 
-def body_argv(command, body, out):
-    return {"validate": ["validate", body],
-            "sdf": ["sdf", body, "--out", out.with_suffix(".npz"), "--spacing", "0.02"],
-            "drape": ["drape", PENCIL, body, "--out", out, *QUICK],
-            "grade (base)": ["grade", PENCIL, "--base-body", body, "--target-body", B1, "--out", out, *QUICK],
-            "grade (target)": ["grade", PENCIL, "--base-body", B0, "--target-body", body, "--out", out, *QUICK],
-            }[command]
+# ----------------------------------------------------------------------------- every command, every bad input
+
+# Each command that reads a pattern: its arguments for a pattern and an output path.
+PATTERN_COMMANDS = {
+    "validate": lambda pattern, out: ["validate", pattern],
+    "mesh": lambda pattern, out: ["mesh", pattern, "--out", out, "--edge-length", "4"],
+    "drape": lambda pattern, out: ["drape", pattern, B0, "--out", out, "--edge-length", "4"],
+    "grade": lambda pattern, out: ["grade", pattern, "--base-body", B0, "--target-body", B1, "--out", out, *QUICK],
+}
 
 
-@pytest.mark.parametrize("command", ["validate", "sdf", "drape", "grade (base)", "grade (target)"])
-@pytest.mark.parametrize("case", list(BAD_BODIES))
-def test_bad_body(tmp_path, capsys, monkeypatch, command, case):
+# Each command that reads a body (grade: as either body): its arguments for a body and an output path.
+BODY_COMMANDS = {
+    "validate": lambda body, out: ["validate", body],
+    "sdf": lambda body, out: ["sdf", body, "--out", out.with_suffix(".npz"), "--spacing", "0.02"],
+    "drape": lambda body, out: ["drape", PENCIL, body, "--out", out, *QUICK],
+    "grade (base)": lambda body, out: ["grade", PENCIL, "--base-body", body, "--target-body", B1, "--out", out, *QUICK],
+    "grade (target)": lambda body, out: ["grade", PENCIL, "--base-body", B0, "--target-body", body, "--out", out,
+                                         *QUICK],
+}
+
+
+# Each kind of input: its bad cases and the commands that read it.
+KINDS = {"pattern": (BAD_PATTERNS, PATTERN_COMMANDS), "body": (BAD_BODIES, BODY_COMMANDS)}
+
+
+@pytest.mark.parametrize("kind, command, case", [(kind, command, case) for kind, (cases, commands) in KINDS.items()
+                                                 for command in commands for case in cases])
+def test_bad_input(tmp_path, capsys, monkeypatch, kind, command, case):
+    """The command on the bad input is refused with the expected names in its message, and
+    writes nothing."""
     monkeypatch.setenv("SEAMFIT_CACHE_DIR", str(tmp_path / "cache"))
-    make, names = BAD_BODIES[case]
-    body = make(tmp_path)
+    cases, commands = KINDS[kind]
+    make, names = cases[case]
+    path = make(tmp_path)
     out = tmp_path / "out"
-    code, _, err, secs = run(capsys, *body_argv(command, body, out))
-    assert_refused(code, err, secs, command.split()[0], body, *names)
+    code, _, err, secs = run(capsys, *commands[command](path, out))
+    assert_refused(code, err, secs, command.split()[0], path, *names)
     assert not out.exists() and not out.with_suffix(".npz").exists() and not list(tmp_path.glob(".out*"))
 
 

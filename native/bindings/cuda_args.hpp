@@ -19,6 +19,9 @@ namespace py = pybind11;
 using DArr = py::array_t<double, py::array::c_style | py::array::forcecast>;
 using cuda::DeviceArray;
 using cuda::SimGpu;
+using sim::Simulator;
+using sim::SolveReport;
+using sim::SolveSettings;
 
 // x: a host state (n, 3) of g's simulator.
 inline void require_x(const SimGpu& g, const py::array& x) {

@@ -12,6 +12,8 @@
 #include <string>
 
 #include "cuda_args.hpp"
+#include "py_errors.hpp"
+#include "py_fill.hpp"
 #include "sim/adjoint_gpu.hpp"
 #include "sim/newton_gpu.hpp"
 #include "sim/sim_gpu.hpp"
@@ -29,10 +31,6 @@ namespace {
 using namespace cuda_args;
 using seamfit::cuda::CudaError;
 using seamfit::cuda::GpuOptions;
-using seamfit::sim::EnergyTerms;
-using seamfit::sim::Simulator;
-using seamfit::sim::SolveReport;
-using seamfit::sim::SolveSettings;
 using GpuClass = py::class_<SimGpu>;
 
 // The keys of Simulator.solve's report (sim_report.hpp), plus the device.
@@ -56,17 +54,7 @@ py::tuple solve_from(SimGpu& g, const DArr& x0, const py::object& progress, Run&
   return py::make_tuple(x, report_dict(rep, g));
 }
 
-// Binds the translation of CudaError to seamfit.errors.DeviceError.
-void bind_cuda_errors() {
-  py::register_local_exception_translator([](std::exception_ptr p) {
-    try {
-      if (p) std::rethrow_exception(p);
-    } catch (const CudaError& e) {
-      py::object cls = py::module_::import("seamfit.errors").attr("DeviceError");
-      PyErr_SetString(cls.ptr(), e.what());
-    }
-  });
-}
+constexpr char kDeviceError[] = "DeviceError";  // CudaError's face in seamfit.errors
 
 auto make_sim_gpu(const Simulator& s, int device, int block, int lanes, int batch, bool use_graph,
                   bool float_rest) {
@@ -127,38 +115,21 @@ void bind_sim_gpu_model(GpuClass& c) {
 
 auto sim_gpu_energy(SimGpu& g, DArr x) {
   require_x(g, x);
-  EnergyTerms t;
-  double e;
-  {
-    py::gil_scoped_release nogil;
-    e = g.energy(x.data(), &t);
-  }
-  return py::make_tuple(e, terms_dict(t));
+  return energy_and_terms(g, x.data());
 }
 
 auto sim_gpu_force(SimGpu& g, DArr x) {
   require_x(g, x);
   require_outside(g, x.data());
-  py::array_t<double> f({py::ssize_t(g.simulator().n_vertices()), py::ssize_t(3)});
-  double* fp = f.mutable_data();
-  {
-    py::gil_scoped_release nogil;
-    g.force(x.data(), fp, nullptr);
-  }
-  return f;
+  return fill_released(g.simulator().n_vertices(), 3, [&](double* f) { g.force(x.data(), f, nullptr); });
 }
 
 auto sim_gpu_hess_vec(SimGpu& g, DArr x, DArr v, bool psd) {
   require_x(g, x);
   require_x(g, v);
   require_outside(g, x.data());
-  py::array_t<double> out({py::ssize_t(g.simulator().n_vertices()), py::ssize_t(3)});
-  double* op = out.mutable_data();
-  {
-    py::gil_scoped_release nogil;
-    g.hess_vec(x.data(), v.data(), op, psd);
-  }
-  return out;
+  return fill_released(g.simulator().n_vertices(), 3,
+                       [&](double* out) { g.hess_vec(x.data(), v.data(), out, psd); });
 }
 
 // Binds the CudaSimulator's energy, force and Hessian product at a host state.
@@ -253,7 +224,7 @@ void bind_sim_gpu(py::module_& m) {
 // optimizer's GPU blocks (which name CudaSimulator in their signatures).
 void bind_cuda_sim(py::module_& m) {
 #ifdef SEAMFIT_WITH_CUDA
-  bind_cuda_errors();
+  bind_error<CudaError, kDeviceError>();
   bind_sim_gpu(m);
   bind_cuda_adjoint(m);
   bind_cuda_opt(m);

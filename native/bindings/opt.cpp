@@ -1,13 +1,13 @@
 // Python bindings of the optimizer's building blocks (native/core/opt). Thin: shape
 // checks and array conversion only; seamfit.opt wraps these in the public API.
 // This file: the pattern parametrization and the regularizers over theta; the costs
-// are in opt_costs.cpp, the GPU copies in opt_cuda.cpp.
+// are in opt_costs.cpp, the GPU copies in opt_cuda.cpp. The core's std::invalid_argument
+// reaches Python as ValueError with its message (pybind11's own translation).
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
 #include <array>
 #include <memory>
-#include <stdexcept>
 #include <vector>
 
 #include "bindings.hpp"
@@ -15,6 +15,7 @@
 #include "opt/regularizer_set.hpp"
 #include "opt/seam_length.hpp"
 #include "opt_args.hpp"
+#include "py_fill.hpp"
 
 namespace py = pybind11;
 
@@ -44,31 +45,19 @@ auto make_parametrization(const IArr& triangles, const DArr& pbar,
   const py::ssize_t n = pbar.shape(0);
   check_shape(boundary, n, -1, "boundary");
   std::vector<unsigned char> b(boundary.data(), boundary.data() + n);
-  try {
-    return std::make_unique<opt::Parametrization>(int(n), tris_from(triangles), as<Vec2>(pbar), b.data());
-  } catch (const std::invalid_argument& e) {
-    throw py::value_error(e.what());
-  }
+  return std::make_unique<opt::Parametrization>(int(n), tris_from(triangles), as<Vec2>(pbar), b.data());
 }
 
 auto parametrization_pattern(const opt::Parametrization& p, const DArr& theta) {
   check_shape(theta, p.n_boundary(), 2, "theta");
-  DArr out = new_array(p.n_vertices(), 2);
-  {
-    py::gil_scoped_release nogil;
-    p.pattern(as<Vec2>(theta), as_mut<Vec2>(out));
-  }
-  return out;
+  return fill_released(p.n_vertices(), 2,
+                       [&](double* out) { p.pattern(as<Vec2>(theta), reinterpret_cast<Vec2*>(out)); });
 }
 
 auto parametrization_adjoint(const opt::Parametrization& p, const DArr& g) {
   check_shape(g, p.n_vertices(), 2, "g");
-  DArr out = new_array(p.n_boundary(), 2);
-  {
-    py::gil_scoped_release nogil;
-    p.adjoint(as<Vec2>(g), as_mut<Vec2>(out));
-  }
-  return out;
+  return fill_released(p.n_boundary(), 2,
+                       [&](double* out) { p.adjoint(as<Vec2>(g), reinterpret_cast<Vec2*>(out)); });
 }
 
 auto harmonic_blocks(const opt::Parametrization& p) {
@@ -114,11 +103,7 @@ auto make_regularizers(const DArr& theta_bar, const std::vector<std::vector<int>
   check_shape(weight, theta_bar.shape(0), -1, "weight");
   std::vector<Vec2> tb(as<Vec2>(theta_bar), as<Vec2>(theta_bar) + theta_bar.shape(0));
   std::vector<double> w(weight.data(), weight.data() + weight.shape(0));
-  try {
-    return std::make_unique<opt::Regularizers>(tb, loops, w);
-  } catch (const std::invalid_argument& e) {
-    throw py::value_error(e.what());
-  }
+  return std::make_unique<opt::Regularizers>(tb, loops, w);
 }
 
 auto regularizers_evaluate(const opt::Regularizers& r, const DArr& theta) {
@@ -132,11 +117,7 @@ auto regularizers_evaluate(const opt::Regularizers& r, const DArr& theta) {
 auto regularizers_precondition(opt::Regularizers& r, const DArr& g) {
   check_shape(g, r.n_theta(), 2, "g");
   DArr out = new_array(r.n_theta(), 2);
-  try {
-    r.apply_preconditioner(as<Vec2>(g), as_mut<Vec2>(out));
-  } catch (const std::invalid_argument& e) {
-    throw py::value_error(e.what());
-  }
+  r.apply_preconditioner(as<Vec2>(g), as_mut<Vec2>(out));
   return out;
 }
 
@@ -166,12 +147,8 @@ void bind_regularizers(py::module_& m) {
       .def(py::init(&make_regularizers), py::arg("theta_bar"), py::arg("loops"), py::arg("weight"),
            "From the base boundary theta_bar (n_theta, 2), closed outlines as theta indices, and the "
            "per-entry R^cur weights (n_theta,).")
-      .def(
-          "set_strengths",
-          [](Regularizers& r, double fix, double cur) {
-            try { r.set_strengths(fix, cur); } catch (const std::invalid_argument& e) { throw py::value_error(e.what()); }
-          },
-          py::arg("delta_fix"), py::arg("delta_cur"), "The strengths of R^fix and R^cur (P is refactorized).")
+      .def("set_strengths", &Regularizers::set_strengths, py::arg("delta_fix"), py::arg("delta_cur"),
+           "The strengths of R^fix and R^cur (P is refactorized).")
       .def_property_readonly("n_theta", &Regularizers::n_theta, "number of boundary entries in theta")
       .def_property_readonly(
           "curve_elements", [](const Regularizers& r) { return r.curve_elements(); },
@@ -192,11 +169,7 @@ auto make_seam_length(const DArr& theta_bar, const IArr& segments) {
   std::vector<opt::SeamSegment> seg(segments.shape(0));
   for (size_t i = 0; i < seg.size(); ++i)
     for (int c = 0; c < 4; ++c) seg[i][c] = segments.data()[4 * i + c];
-  try {
-    return std::make_unique<opt::SeamLength>(tb, seg);
-  } catch (const std::invalid_argument& e) {
-    throw py::value_error(e.what());
-  }
+  return std::make_unique<opt::SeamLength>(tb, seg);
 }
 
 auto seam_segments(const opt::SeamLength& s) {
@@ -219,12 +192,7 @@ void bind_seam_length(py::module_& m) {
   py::class_<SeamLength>(m, "SeamLength", "R^seam over theta: matched stitch segments keep their base length ratio.")
       .def(py::init(&make_seam_length), py::arg("theta_bar"), py::arg("segments"),
            "From the base boundary theta_bar (n_theta, 2) and matched segments (K, 4): a0 a1 b0 b1 theta indices.")
-      .def(
-          "set_strength",
-          [](SeamLength& s, double d) {
-            try { s.set_strength(d); } catch (const std::invalid_argument& e) { throw py::value_error(e.what()); }
-          },
-          py::arg("delta_seam"), "The strength of R^seam.")
+      .def("set_strength", &SeamLength::set_strength, py::arg("delta_seam"), "The strength of R^seam.")
       .def_property_readonly("n_theta", &SeamLength::n_theta, "number of boundary entries in theta")
       .def_property_readonly("evaluations", &SeamLength::evaluations, "evaluations so far, here and on the GPU")
       .def_property_readonly("segments", &seam_segments, "the kept segments (K, 4), as theta indices")

@@ -10,15 +10,14 @@
 #include <string>
 
 #include "bindings.hpp"
+#include "py_errors.hpp"
+#include "py_fill.hpp"
 #include "sim/simulator.hpp"
 #include "sim_args.hpp"
 #include "sim_report.hpp"
 
 namespace py = pybind11;
-using seamfit::sim::EnergyTerms;
-using seamfit::sim::SimError;
 using seamfit::sim::SimParams;
-using seamfit::sim::Simulator;
 using seamfit::sim::SolveReport;
 using seamfit::sim::SolveSettings;
 
@@ -29,17 +28,7 @@ namespace {
 using namespace sim_args;
 using SimClass = py::class_<Simulator>;
 
-// Binds the translation of SimError (and only it) to seamfit.errors.SolveError.
-void bind_sim_errors() {
-  py::register_local_exception_translator([](std::exception_ptr p) {
-    try {
-      if (p) std::rethrow_exception(p);
-    } catch (const SimError& e) {
-      py::object cls = py::module_::import("seamfit.errors").attr("SolveError");
-      PyErr_SetString(cls.ptr(), e.what());
-    }
-  });
-}
+constexpr char kSolveError[] = "SolveError";  // SimError's face in seamfit.errors
 
 // Binds SimParams, the model constants.
 void bind_sim_params(py::module_& m) {
@@ -129,6 +118,15 @@ void sim_set_sdf(Simulator& s, py::array_t<float, py::array::c_style> values, DA
                  spacing);
 }
 
+// A setter of one array: `what` (Rows() rows of Cols columns, 0: a vector) checked, then Set.
+template <void (Simulator::*Set)(const double*), int (Simulator::*Rows)() const, int Cols>
+auto array_setter(const char* what) {
+  return [what](Simulator& s, DArr a) {
+    require_shape(a, (s.*Rows)(), Cols, what);
+    (s.*Set)(a.data());
+  };
+}
+
 // Binds the Simulator's inputs: parameters, body, pattern, shirring, sticking.
 void bind_simulator_inputs(SimClass& c) {
   c.def_property("params", &Simulator::params, &Simulator::set_params,
@@ -138,20 +136,10 @@ void bind_simulator_inputs(SimClass& c) {
       .def("set_sdf", &sim_set_sdf, py::arg("values"), py::arg("origin"), py::arg("spacing"), py::keep_alive<1, 2>(),
            "Use a C-contiguous float32 (nz, ny, nx) grid in place (not copied; do not modify it)")
       .def("clear_sdf", &Simulator::clear_sdf, "Remove the body: no barrier, phi = +inf.")
-      .def(
-          "set_pattern",
-          [](Simulator& s, DArr p) {
-            require_shape(p, s.n_vertices(), 2, "p");
-            s.set_pattern(p.data());
-          },
-          "A new pattern (n, 2) (m); its rest state is computed on first use.")
-      .def(
-          "set_shirring",
-          [](Simulator& s, DArr r) {
-            require_shape(r, s.n_springs(), 0, "shirring");
-            s.set_shirring(r.data());
-          },
-          "Rest length ratio per patch spring (n_springs,).")
+      .def("set_pattern", array_setter<&Simulator::set_pattern, &Simulator::n_vertices, 2>("p"),
+           "A new pattern (n, 2) (m); its rest state is computed on first use.")
+      .def("set_shirring", array_setter<&Simulator::set_shirring, &Simulator::n_springs, 0>("shirring"),
+           "Rest length ratio per patch spring (n_springs,).")
       .def(
           "set_sticking",
           [](Simulator& s, DArr k, DArr targets) {
@@ -164,25 +152,13 @@ void bind_simulator_inputs(SimClass& c) {
 
 auto sim_energy(Simulator& s, DArr x) {
   require_shape(x, s.n_vertices(), 3, "x");
-  EnergyTerms t;
-  double e;
-  {
-    py::gil_scoped_release nogil;
-    e = s.energy(x.data(), &t);
-  }
-  return py::make_tuple(e, terms_dict(t));
+  return energy_and_terms(s, x.data());
 }
 
 auto sim_force(Simulator& s, DArr x) {
   require_shape(x, s.n_vertices(), 3, "x");
   require_outside(s, x.data());
-  py::array_t<double> f({py::ssize_t(s.n_vertices()), py::ssize_t(3)});
-  double* fp = f.mutable_data();
-  {
-    py::gil_scoped_release nogil;
-    s.force(x.data(), fp);
-  }
-  return f;
+  return fill_released(s.n_vertices(), 3, [&](double* f) { s.force(x.data(), f); });
 }
 
 auto sim_residual(Simulator& s, DArr x) {
@@ -215,26 +191,14 @@ auto sim_hess_vec(Simulator& s, DArr x, DArr v, bool psd) {
   require_shape(x, s.n_vertices(), 3, "x");
   require_shape(v, s.n_vertices(), 3, "v");
   require_outside(s, x.data());
-  py::array_t<double> out({py::ssize_t(s.n_vertices()), py::ssize_t(3)});
-  double* op = out.mutable_data();
-  {
-    py::gil_scoped_release nogil;
-    s.hess_vec(x.data(), v.data(), op, psd);
-  }
-  return out;
+  return fill_released(s.n_vertices(), 3, [&](double* out) { s.hess_vec(x.data(), v.data(), out, psd); });
 }
 
 auto sim_dfdp_T(Simulator& s, DArr x, DArr lam) {
   require_shape(x, s.n_vertices(), 3, "x");
   require_shape(lam, s.n_vertices(), 3, "lambda");
   require_outside(s, x.data());
-  py::array_t<double> out({py::ssize_t(s.n_vertices()), py::ssize_t(2)});
-  double* op = out.mutable_data();
-  {
-    py::gil_scoped_release nogil;
-    s.dfdp_T(x.data(), lam.data(), op);
-  }
-  return out;
+  return fill_released(s.n_vertices(), 2, [&](double* out) { s.dfdp_T(x.data(), lam.data(), out); });
 }
 
 // Binds the Simulator's energy and its derivatives at a state x (n, 3).
@@ -339,7 +303,7 @@ void bind_simulator(py::module_& m) {
 
 // Binds the CPU simulator: its error, parameters, settings, the Simulator and its linear solvers.
 void bind_sim(py::module_& m) {
-  bind_sim_errors();
+  bind_error<SimError, kSolveError>();
   bind_sim_params(m);
   bind_solve_settings(m);
   bind_simulator(m);

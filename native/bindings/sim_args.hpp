@@ -16,6 +16,8 @@ namespace seamfit::bindings::sim_args {
 
 namespace py = pybind11;
 
+using sim::SimError;
+using sim::Simulator;
 using DArr = py::array_t<double, py::array::c_style | py::array::forcecast>;
 using IArr = py::array_t<int32_t, py::array::c_style | py::array::forcecast>;
 using FArr = py::array_t<float, py::array::c_style | py::array::forcecast>;

@@ -43,6 +43,18 @@ inline pybind11::dict report_dict(const sim::SolveReport& r) {
   return d;
 }
 
+// (energy, terms) at x (n, 3) of a CPU or GPU simulator, computed with the GIL released.
+template <class Sim>
+pybind11::tuple energy_and_terms(Sim& s, const double* x) {
+  sim::EnergyTerms t;
+  double e;
+  {
+    pybind11::gil_scoped_release nogil;
+    e = s.energy(x, &t);
+  }
+  return pybind11::make_tuple(e, terms_dict(t));
+}
+
 // Runs solve(fn, cancel) with the GIL released, fn relaying progress(it, res)
 // to Python (None: no callback). The callback runs with the GIL retaken; one
 // that raises cancels the solve, and its exception is re-raised afterwards.

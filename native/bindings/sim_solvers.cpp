@@ -15,8 +15,6 @@
 #include "sim_args.hpp"
 
 namespace py = pybind11;
-using seamfit::sim::SimError;
-using seamfit::sim::Simulator;
 using seamfit::sim::TangentSolver;
 
 namespace seamfit::bindings {

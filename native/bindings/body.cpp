@@ -79,24 +79,15 @@ auto sdf_layout(F64 vertices, double spacing, double padding, py::object bounds)
 // The build's layout, timings and counters, as sdf_build returns them.
 py::dict build_info(const body::SdfLayout& L, const body::SdfBuildStats& st, double spacing,
                     const std::string& device) {
-  py::dict info = layout_dict(L);
-  info["spacing"] = spacing;
-  info["device"] = device;
-  info["seconds_total"] = st.seconds_total;
-  info["seconds_band"] = st.seconds_band;
-  info["seconds_seed"] = st.seconds_seed;
-  info["seconds_propagate"] = st.seconds_propagate;
-  info["seconds_sign"] = st.seconds_sign;
-  info["seconds_gpu"] = st.seconds_gpu;
-  info["band_evaluations"] = st.band_evaluations;
-  info["propagate_evaluations"] = st.propagate_evaluations;
-  info["seeded_nodes"] = st.seeded_nodes;
-  info["cap_winding_nodes"] = st.cap_winding_nodes;
-  info["boundary_edges"] = st.boundary_edges;
-  info["caps"] = st.caps;
-  info["inside_nodes"] = st.inside_nodes;
-  info["threads"] = st.threads;
-  return info;
+  using namespace py::literals;
+  return py::dict(**layout_dict(L), "spacing"_a = spacing, "device"_a = device,
+                  "seconds_total"_a = st.seconds_total, "seconds_band"_a = st.seconds_band,
+                  "seconds_seed"_a = st.seconds_seed, "seconds_propagate"_a = st.seconds_propagate,
+                  "seconds_sign"_a = st.seconds_sign, "seconds_gpu"_a = st.seconds_gpu,
+                  "band_evaluations"_a = st.band_evaluations, "propagate_evaluations"_a = st.propagate_evaluations,
+                  "seeded_nodes"_a = st.seeded_nodes, "cap_winding_nodes"_a = st.cap_winding_nodes,
+                  "boundary_edges"_a = st.boundary_edges, "caps"_a = st.caps, "inside_nodes"_a = st.inside_nodes,
+                  "threads"_a = st.threads);
 }
 
 auto sdf_build(F64 vertices, I32 faces, double spacing, double padding, py::object bounds, double band,

@@ -24,16 +24,10 @@ using seamfit::cuda::AdjointSettings;
 using seamfit::cuda::DfdpGpu;
 
 py::dict adjoint_report_dict(const AdjointReport& r) {
-  py::dict d;
-  d["converged"] = r.converged;
-  d["status"] = r.status;
-  d["iterations"] = r.iterations;
-  d["residual"] = r.residual;
-  d["estimate"] = r.estimate;
-  d["shift"] = r.shift;
-  d["seconds"] = r.seconds;
-  d["message"] = r.message;
-  return d;
+  using namespace py::literals;
+  return py::dict("converged"_a = r.converged, "status"_a = r.status, "iterations"_a = r.iterations,
+                  "residual"_a = r.residual, "estimate"_a = r.estimate, "shift"_a = r.shift,
+                  "seconds"_a = r.seconds, "message"_a = r.message);
 }
 
 AdjointSettings adjoint_settings(double tolerance, int max_iterations, int batch, bool persistent) {

@@ -192,13 +192,9 @@ auto sim_gpu_time_kernels(SimGpu& g, DArr x, int reps) {
     py::gil_scoped_release nogil;
     t = g.time_kernels(x.data(), reps);
   }
-  py::dict d;
-  d["eval_us"] = t.eval_us;
-  d["step_us"] = t.step_us;
-  d["slot_us"] = t.slot_us;
-  d["eval_bytes"] = t.eval_bytes;
-  d["step_bytes"] = t.step_bytes;
-  return d;
+  using namespace py::literals;
+  return py::dict("eval_us"_a = t.eval_us, "step_us"_a = t.step_us, "slot_us"_a = t.slot_us,
+                  "eval_bytes"_a = t.eval_bytes, "step_bytes"_a = t.step_bytes);
 }
 
 // Binds CudaSimulator: construction, then its members by group.

@@ -12,35 +12,20 @@
 namespace seamfit::bindings {
 
 inline pybind11::dict terms_dict(const sim::EnergyTerms& t) {
-  pybind11::dict d;
-  d["stretch"] = t.stretch;
-  d["sewing"] = t.sewing;
-  d["bending"] = t.bending;
-  d["gravity"] = t.gravity;
-  d["sticking"] = t.sticking;
-  d["barrier"] = t.barrier;
-  return d;
+  using namespace pybind11::literals;
+  return pybind11::dict("stretch"_a = t.stretch, "sewing"_a = t.sewing, "bending"_a = t.bending,
+                        "gravity"_a = t.gravity, "sticking"_a = t.sticking, "barrier"_a = t.barrier);
 }
 
 inline pybind11::dict report_dict(const sim::SolveReport& r) {
-  pybind11::dict d;
-  d["iterations"] = r.iterations;
-  d["seconds"] = r.seconds;
-  d["residual"] = r.residual;
-  d["energy"] = r.energy;
-  d["converged"] = r.converged;
-  d["cancelled"] = r.cancelled;
-  d["restarts"] = r.restarts;
-  d["projections"] = r.projections;
-  d["rejected_steps"] = r.rejected_steps;
-  d["final_rho"] = r.final_rho;
-  d["final_alpha"] = r.final_alpha;
-  d["linear_iterations"] = r.linear_iterations;
-  d["message"] = r.message;
-  d["history_iteration"] = r.hist_iter;
-  d["history_seconds"] = r.hist_seconds;
-  d["history_residual"] = r.hist_residual;
-  return d;
+  using namespace pybind11::literals;
+  return pybind11::dict("iterations"_a = r.iterations, "seconds"_a = r.seconds, "residual"_a = r.residual,
+                        "energy"_a = r.energy, "converged"_a = r.converged, "cancelled"_a = r.cancelled,
+                        "restarts"_a = r.restarts, "projections"_a = r.projections,
+                        "rejected_steps"_a = r.rejected_steps, "final_rho"_a = r.final_rho,
+                        "final_alpha"_a = r.final_alpha, "linear_iterations"_a = r.linear_iterations,
+                        "message"_a = r.message, "history_iteration"_a = r.hist_iter,
+                        "history_seconds"_a = r.hist_seconds, "history_residual"_a = r.hist_residual);
 }
 
 // (energy, terms) at x (n, 3) of a CPU or GPU simulator, computed with the GIL released.

@@ -147,7 +147,7 @@ void DfdpGpu::apply_device(const double* d_x, const double* d_lam, double* d_out
   a.Y = P.stretch_Y;
   a.kb = P.bend_kb;
   a.gv = P.gravity;
-  a.bar = I.gpu->simulator().has_sdf() && P.mu > 0;
+  a.bar = I.gpu->simulator().barrier_on();
   // As the CPU: the mass terms only where there is gravity or a barrier.
   const bool mass_terms = P.density > 0 && (norm2(P.gravity) > 0 || a.bar);
   a.rho3 = mass_terms ? P.density / 3.0 : 0.0;

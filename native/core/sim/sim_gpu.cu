@@ -903,11 +903,7 @@ sim::SolveReport SimGpu::run_chebyshev(const sim::SolveSettings& st, const sim::
   if (c.hist_count)
     SF_CUDA(cudaMemcpyAsync(hist.data(), I.hist.p, hist.size() * sizeof(double), cudaMemcpyDeviceToHost, I.stream));
   SF_CUDA(cudaStreamSynchronize(I.stream));
-  for (int h = 0; h < c.hist_count; ++h) {
-    rep.hist_iter.push_back(hist[3 * h]);
-    rep.hist_seconds.push_back(t_start + hist[3 * h + 1]);
-    rep.hist_residual.push_back(hist[3 * h + 2]);
-  }
+  for (int h = 0; h < c.hist_count; ++h) rep.record(hist[3 * h], t_start + hist[3 * h + 1], hist[3 * h + 2]);
   rep.iterations = c.it;
   rep.residual = c.res;
   rep.energy = c.E;

@@ -388,7 +388,7 @@ double Simulator::projection_gap() const {
 }
 
 int Simulator::first_inside(const double* x, double* phi_out) const {
-  if (!has_sdf_ || !(params_.mu > 0)) return -1;
+  if (!barrier_on()) return -1;
   for (int v = 0; v < n_; ++v) {
     const SdfSample s = sdf_at(vget(x, v));
     if (!(s.phi > 0)) {
@@ -413,7 +413,7 @@ void Simulator::evaluate(const double* x, double* f, EnergyTerms* terms, Sym3* d
   const double Y = params_.stretch_Y, Ys = params_.sewing_Y, kb = params_.bend_kb;
   const Vec3 gv = params_.gravity;
   const bool grav = params_.density > 0 && norm2(gv) > 0;
-  const bool bar = has_sdf_ && params_.mu > 0;
+  const bool bar = barrier_on();
   const bool stick = any_sticking_;
   const double dhat = params_.barrier_distance;
   double e_stretch = 0;
@@ -519,7 +519,7 @@ const Eigen::SparseMatrix<double>& Simulator::hessian(const double* x, bool psd)
   ensure_rest_state();
   const int E = n_springs();
   const double Y = params_.stretch_Y, Ys = params_.sewing_Y, kb = params_.bend_kb;
-  const bool bar = has_sdf_ && params_.mu > 0;
+  const bool bar = barrier_on();
   if (Y > 0) {
 #pragma omp parallel for schedule(static) num_threads(threads_)
     for (int e = 0; e < E; ++e)
@@ -569,7 +569,7 @@ void Simulator::hess_vec(const double* x, const double* vin, double* out, bool p
   ensure_rest_state();
   const int E = n_springs();
   const double Y = params_.stretch_Y, Ys = params_.sewing_Y, kb = params_.bend_kb;
-  const bool bar = has_sdf_ && params_.mu > 0;
+  const bool bar = barrier_on();
   if (Y > 0) {
 #pragma omp parallel for schedule(static) num_threads(threads_)
     for (int e = 0; e < E; ++e) {
@@ -609,7 +609,7 @@ void Simulator::dfdp_T(const double* x, const double* lam, double* out) {
   const int E = n_springs(), Hn = n_hinges(), T = n_triangles();
   const double Y = params_.stretch_Y, kb = params_.bend_kb;
   const Vec3 gv = params_.gravity;
-  const bool bar = has_sdf_ && params_.mu > 0;
+  const bool bar = barrier_on();
   const bool mass_terms = params_.density > 0 && (norm2(gv) > 0 || bar);
   // Scratch layout: springs (2E) | hinges (8H) | triangles (6T) | vertex weights (n).
   const size_t o_s = 0, o_h = o_s + (Y > 0 ? 2 * size_t(E) : 0), o_t = o_h + (kb > 0 ? 8 * size_t(Hn) : 0),
@@ -667,7 +667,7 @@ void Simulator::sewing_gaps(const double* x, double* gaps) const {
 }
 
 int Simulator::project_outside(double* x, double floor, double target) const {
-  if (!has_sdf_ || !(params_.mu > 0)) return 0;
+  if (!barrier_on()) return 0;
   int count = 0;
 #pragma omp parallel for reduction(+ : count) schedule(static) num_threads(threads_)
   for (int v = 0; v < n_; ++v) {

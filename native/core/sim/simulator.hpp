@@ -95,6 +95,13 @@ struct SolveReport {
   long linear_iterations = 0;  // Newton with an outside step solver: its iterations, all steps
   std::string message;
   std::vector<double> hist_iter, hist_seconds, hist_residual;
+
+  // One row of the residual history: iteration, seconds since the start, residual.
+  void record(double iteration, double at_seconds, double res) {
+    hist_iter.push_back(iteration);
+    hist_seconds.push_back(at_seconds);
+    hist_residual.push_back(res);
+  }
 };
 
 // Progress callback: (iteration, residual) -> keep going?
@@ -158,6 +165,8 @@ class Simulator {
   void set_sdf_view(const float* values, int nx, int ny, int nz, const double origin[3], double spacing);
   void clear_sdf();
   bool has_sdf() const { return has_sdf_; }
+  // The barrier term is on: a body, and a positive strength mu.
+  bool barrier_on() const { return has_sdf_ && params_.mu > 0; }
   void set_params(const SimParams& params);  // everything but the topology
   const SimParams& params() const { return params_; }
   SimArrays arrays() const;

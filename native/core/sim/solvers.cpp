@@ -50,6 +50,15 @@ inline double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
+// Both solvers' convergence check: true (and the report says so) at the
+// tolerance, which a NaN residual never reaches. `what` names the iterations.
+bool reached_tolerance(SolveReport& rep, const SolveSettings& st, int it, double res, const char* what) {
+  if (!(res <= st.tolerance)) return false;
+  rep.converged = true;
+  rep.message = msg_converged(res, st.tolerance, it, what);
+  return true;
+}
+
 // The iteration and time budgets both solvers check each iteration: true (and
 // the report's message) when one is spent. `what` names the iterations.
 bool budget_spent(SolveReport& rep, const SolveSettings& st, int it, double res, Clock::time_point t0,
@@ -78,9 +87,8 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   const auto t0 = Clock::now();
   SolveReport rep;
   const int n3 = 3 * n_;
-  const bool bar = has_sdf_ && params_.mu > 0;
-  const double gap = projection_gap();
-  if (bar) rep.projections += project_outside(x, kProjectFloor, gap);
+  const bool bar = barrier_on();
+  if (bar) rep.projections += project_outside(x, kProjectFloor, projection_gap());
 
   std::vector<double> xc(x, x + n3), xp(xc), ck(xc), f(n3), d(n3);
   std::vector<Sym3> D(n_);
@@ -124,16 +132,8 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
   for (;; ++it) {
     const double res = residual(f.data());
     rep.residual = res;
-    if (st.history_every > 0 && it % st.history_every == 0) {
-      rep.hist_iter.push_back(it);
-      rep.hist_seconds.push_back(seconds_since(t0));
-      rep.hist_residual.push_back(res);
-    }
-    if (res <= st.tolerance) {
-      rep.converged = true;
-      rep.message = msg_converged(res, st.tolerance, it, "iterations");
-      break;
-    }
+    if (st.history_every > 0 && it % st.history_every == 0) rep.record(it, seconds_since(t0), res);
+    if (reached_tolerance(rep, st, it, res, "iterations")) break;
     if (!std::isfinite(res)) {
       // Never hand back a poisoned state: fall back to the last checkpoint.
       xc = ck;
@@ -243,7 +243,7 @@ SolveReport Simulator::solve_chebyshev(double* x, const SolveSettings& st, const
 
 double Simulator::jacobi_sweeps(double* x, int sweeps, double alpha) {
   const int n3 = 3 * n_;
-  const bool bar = has_sdf_ && params_.mu > 0;
+  const bool bar = barrier_on();
   std::vector<double> f(n3), xn(n3);
   std::vector<Sym3> D(n_);
   std::vector<SdfSample> S(bar ? n_ : 0), Sn(bar ? n_ : 0);
@@ -280,9 +280,8 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
   const auto t0 = Clock::now();
   SolveReport rep;
   const int n3 = 3 * n_;
-  const bool bar = has_sdf_ && params_.mu > 0;
-  const double gap = projection_gap();
-  if (bar) rep.projections += project_outside(x, kProjectFloor, gap);
+  const bool bar = barrier_on();
+  if (bar) rep.projections += project_outside(x, kProjectFloor, projection_gap());
 
   Eigen::Map<Eigen::VectorXd> X(x, n3);
   Eigen::VectorXd f(n3), dx(n3), xt(n3);
@@ -311,16 +310,8 @@ SolveReport Simulator::solve_newton(double* x, const SolveSettings& st, const Pr
       res_best = res;
       x_best = X;
     }
-    if (st.history_every > 0 && retries == 0) {
-      rep.hist_iter.push_back(it);
-      rep.hist_seconds.push_back(seconds_since(t0));
-      rep.hist_residual.push_back(res);
-    }
-    if (res <= st.tolerance) {
-      rep.converged = true;
-      rep.message = msg_converged(res, st.tolerance, it, "Newton iterations");
-      break;
-    }
+    if (st.history_every > 0 && retries == 0) rep.record(it, seconds_since(t0), res);
+    if (reached_tolerance(rep, st, it, res, "Newton iterations")) break;
     if (budget_spent(rep, st, it, res, t0, "Newton iterations")) break;
     if ((cancel && cancel->load()) || (progress && !progress(it, res))) {
       rep.cancelled = true;

@@ -46,6 +46,21 @@ void upload(DevBuf& b, const T* h, size_t count, cudaStream_t s) {
   if (count) SF_CUDA(cudaMemcpyAsync(b.p, h, count * sizeof(T), cudaMemcpyHostToDevice, s));
 }
 
+// sh[q][0] = the sum of sh[q][0..blockDim.x) for each q, by halving (blockDim.x a
+// power of two, at most N) in a fixed order, so that the sum does not depend on
+// which block computes it. Every thread of the block calls it once its own
+// sh[q][threadIdx.x] are written.
+template <int Q, int N>
+__device__ void tree_sum(double (&sh)[Q][N]) {
+  const int t = threadIdx.x;
+  __syncthreads();
+  for (int w = blockDim.x / 2; w > 0; w >>= 1) {
+    if (t < w)
+      for (int q = 0; q < Q; ++q) sh[q][t] += sh[q][t + w];
+    __syncthreads();
+  }
+}
+
 // Sum of Q values over the block, written to out[0..Q-1] by thread 0.
 template <int Q>
 __device__ void block_sum(double (&v)[Q], double* out) {

@@ -81,6 +81,14 @@ struct PatternGpu::Impl {
     return d;
   }
   void launch(const DenseRows& d) const { launch_dense_rows<2>(d, stream); }
+  // A host call of a device map: n_in rows of 2 up into `din`, map(din, dout), n_out rows back.
+  template <class Map>
+  void on_host(DevBuf& din, const Vec2* in, int n_in, DevBuf& dout, Vec2* out, int n_out, Map&& map) {
+    upload(din, reinterpret_cast<const double*>(in), 2 * size_t(n_in), stream);
+    map(din.as<double>(), dout.as<double>());
+    SF_CUDA(cudaMemcpyAsync(out, dout.p, 2 * size_t(n_out) * sizeof(double), cudaMemcpyDeviceToHost, stream));
+    SF_CUDA(cudaStreamSynchronize(stream));
+  }
   ~Impl() {
     if (stream) cudaStreamDestroy(stream);
   }
@@ -176,11 +184,7 @@ PatternGpu::~PatternGpu() = default;
 
 void PatternGpu::pattern(const Vec2* theta, Vec2* p) {
   Impl& I = *impl_;
-  cudaStream_t s = I.stream;
-  upload(I.theta, reinterpret_cast<const double*>(theta), 2 * size_t(I.nb), s);
-  pattern_device(I.theta.as<double>(), I.p.as<double>());
-  SF_CUDA(cudaMemcpyAsync(p, I.p.p, 2 * size_t(I.n) * sizeof(double), cudaMemcpyDeviceToHost, s));
-  SF_CUDA(cudaStreamSynchronize(s));
+  I.on_host(I.theta, theta, I.nb, I.p, p, I.n, [&](const double* t, double* q) { pattern_device(t, q); });
 }
 
 void PatternGpu::pattern_device(const double* d_theta, double* d_p) {
@@ -200,11 +204,7 @@ void PatternGpu::pattern_device(const double* d_theta, double* d_p) {
 
 void PatternGpu::adjoint(const Vec2* g, Vec2* g_theta) {
   Impl& I = *impl_;
-  cudaStream_t s = I.stream;
-  upload(I.g, reinterpret_cast<const double*>(g), 2 * size_t(I.n), s);
-  adjoint_device(I.g.as<double>(), I.gt.as<double>());
-  SF_CUDA(cudaMemcpyAsync(g_theta, I.gt.p, 2 * size_t(I.nb) * sizeof(double), cudaMemcpyDeviceToHost, s));
-  SF_CUDA(cudaStreamSynchronize(s));
+  I.on_host(I.g, g, I.n, I.gt, g_theta, I.nb, [&](const double* v, double* w) { adjoint_device(v, w); });
 }
 
 void PatternGpu::adjoint_device(const double* d_g, double* d_g_theta) {

@@ -58,12 +58,7 @@ __device__ void reduce_fixed(const double* part, int nb, double (&out)[Q]) {
     for (int b = t; b < nb; b += nt) a += __ldcg(part + Q * b + q);
     sh[q][t] = a;
   }
-  __syncthreads();
-  for (int w = nt / 2; w > 0; w >>= 1) {
-    if (t < w)
-      for (int q = 0; q < Q; ++q) sh[q][t] += sh[q][t + w];
-    __syncthreads();
-  }
+  tree_sum(sh);
   for (int q = 0; q < Q; ++q) out[q] = sh[q][0];
 }
 

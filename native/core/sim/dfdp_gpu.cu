@@ -18,12 +18,9 @@ namespace {
 constexpr int kBlock = 128;
 
 struct Arrays {
-  int n = 0, E = 0, T = 0, H = 0;
-  const double *p = nullptr, *x = nullptr, *lam = nullptr, *rest_L = nullptr, *shirring = nullptr, *mass = nullptr;
-  const int32_t *spring_v = nullptr, *vs_ptr = nullptr, *vs_idx = nullptr;
-  const int32_t *tris = nullptr, *vt_ptr = nullptr, *vt_idx = nullptr;
-  const int32_t *hinge_v = nullptr, *vh_ptr = nullptr, *vh_idx = nullptr;
-  const uint8_t* L_floored = nullptr;
+  int n = 0, E = 0, T = 0, H = 0;  // the elements whose terms are on
+  DeviceRest d;                     // the pattern, rest state and topology
+  const double *x = nullptr, *lam = nullptr;
   double *sp = nullptr, *hp = nullptr, *tp = nullptr, *wv = nullptr, *out = nullptr;
   double Y = 0, kb = 0, rho3 = 0, sb = 0, dhat = 0, m_floor = 0;
   Vec3 gv{0, 0, 0};
@@ -34,13 +31,13 @@ struct Arrays {
 __global__ void k_springs(Arrays a) {
   const int e = blockIdx.x * blockDim.x + threadIdx.x;
   if (e >= a.E) return;
-  if (a.L_floored[e]) {
+  if (a.d.L_floored[e]) {
     a.sp[2 * e] = a.sp[2 * e + 1] = 0;
     return;
   }
-  const int i = a.spring_v[2 * e], j = a.spring_v[2 * e + 1];
-  sim::patch_spring_dfdp_T(load3(a.x, i), load3(a.x, j), load3(a.lam, i), load3(a.lam, j), a.p[2 * i],
-                           a.p[2 * i + 1], a.p[2 * j], a.p[2 * j + 1], a.rest_L[e], a.shirring[e], a.Y,
+  const int i = a.d.spring_v[2 * e], j = a.d.spring_v[2 * e + 1];
+  sim::patch_spring_dfdp_T(load3(a.x, i), load3(a.x, j), load3(a.lam, i), load3(a.lam, j), a.d.p[2 * i],
+                           a.d.p[2 * i + 1], a.d.p[2 * j], a.d.p[2 * j + 1], a.d.rest_L[e], a.d.shirring[e], a.Y,
                            a.sp + 2 * e);
 }
 
@@ -50,9 +47,9 @@ __global__ void k_hinges(Arrays a) {
   double pp[8];
   Vec3 xx[4], ll[4];
   for (int k = 0; k < 4; ++k) {
-    const int v = a.hinge_v[4 * h + k];
-    pp[2 * k] = a.p[2 * v];
-    pp[2 * k + 1] = a.p[2 * v + 1];
+    const int v = a.d.hinge_v[4 * h + k];
+    pp[2 * k] = a.d.p[2 * v];
+    pp[2 * k + 1] = a.d.p[2 * v + 1];
     xx[k] = load3(a.x, v);
     ll[k] = load3(a.lam, v);
   }
@@ -62,7 +59,7 @@ __global__ void k_hinges(Arrays a) {
 __global__ void k_weights(Arrays a) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= a.n) return;
-  const bool b = a.bar && a.mass[v] >= a.m_floor;
+  const bool b = a.bar && a.d.mass[v] >= a.m_floor;
   const SdfSample s = b ? sim::barrier_field(a.sdf, a.smooth, load3(a.x, v)) : SdfSample{};
   a.wv[v] = sim::dfdp_mass_weight(a.gv, load3(a.lam, v), b, s, a.sb, a.dhat);
 }
@@ -70,14 +67,15 @@ __global__ void k_weights(Arrays a) {
 __global__ void k_triangles(Arrays a) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   if (t >= a.T) return;
-  sim::dfdp_triangle(a.p, a.tris + 3 * t, a.wv, a.rho3, a.tp + 6 * t);
+  sim::dfdp_triangle(a.d.p, a.d.tris + 3 * t, a.wv, a.rho3, a.tp + 6 * t);
 }
 
 __global__ void k_gather(Arrays a) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= a.n) return;
-  sim::dfdp_gather(v, a.vs_ptr, a.vs_idx, a.Y > 0 ? a.sp : nullptr, a.vh_ptr, a.vh_idx, a.kb > 0 ? a.hp : nullptr,
-                   a.vt_ptr, a.vt_idx, a.rho3 != 0 ? a.tp : nullptr, a.out + 2 * v);
+  const DeviceRest& d = a.d;
+  sim::dfdp_gather(v, d.vs_ptr, d.vs_idx, a.Y > 0 ? a.sp : nullptr, d.vh_ptr, d.vh_idx, a.kb > 0 ? a.hp : nullptr,
+                   d.vt_ptr, d.vt_idx, a.rho3 != 0 ? a.tp : nullptr, a.out + 2 * v);
 }
 
 int blocks(int n) { return (n + kBlock - 1) / kBlock; }
@@ -123,22 +121,9 @@ void DfdpGpu::apply_device(const double* d_x, const double* d_lam, double* d_out
   a.n = n;
   a.E = P.stretch_Y > 0 ? E : 0;
   a.H = P.bend_kb > 0 ? H : 0;
-  a.p = d.p;
+  a.d = d;
   a.x = d_x;
   a.lam = d_lam;
-  a.rest_L = d.rest_L;
-  a.shirring = d.shirring;
-  a.mass = d.mass;
-  a.spring_v = d.spring_v;
-  a.vs_ptr = d.vs_ptr;
-  a.vs_idx = d.vs_idx;
-  a.tris = d.tris;
-  a.vt_ptr = d.vt_ptr;
-  a.vt_idx = d.vt_idx;
-  a.hinge_v = d.hinge_v;
-  a.vh_ptr = d.vh_ptr;
-  a.vh_idx = d.vh_idx;
-  a.L_floored = d.L_floored;
   a.sp = I.sp.as<double>();
   a.hp = I.hp.as<double>();
   a.tp = I.tp.as<double>();

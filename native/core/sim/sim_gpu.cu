@@ -62,12 +62,7 @@ __device__ void reduce_parts(const double* pe, int nbe, const double* ps, int nb
     }
     sh[q][t] = a;
   }
-  __syncthreads();
-  for (int w = nt / 2; w > 0; w >>= 1) {
-    if (t < w)
-      for (int q = 0; q < kSums; ++q) sh[q][t] += sh[q][t + w];
-    __syncthreads();
-  }
+  tree_sum(sh);
   if (t == 0)
     for (int q = 0; q < kSums; ++q) sums[q] = sh[q][0];
 }
@@ -232,10 +227,8 @@ __global__ void __launch_bounds__(kCtrlThreads) k_sums(const double* pe, int nb,
 
 // The rest state from the pattern on the device (sim/rest_state.hpp).
 struct RestArgs {
-  int n = 0, E = 0, T = 0, H = 0;
-  const double* p = nullptr;
-  const int32_t *spring_v = nullptr, *tris = nullptr, *vt_ptr = nullptr, *vt_idx = nullptr;
-  const int32_t *hinge_v = nullptr, *vh_ptr = nullptr, *vh_idx = nullptr, *nbr_ptr = nullptr, *nbr_idx = nullptr;
+  DeviceRest mesh;  // the pattern and topology; its rest state is what the kernels write below
+  const int32_t *nbr_ptr = nullptr, *nbr_idx = nullptr;
   double *rest_L = nullptr, *tri_area = nullptr, *hinge_K = nullptr, *hinge_w = nullptr, *Q = nullptr;
   double *mass = nullptr, *barrier_c = nullptr, *part = nullptr;
   uint8_t* floored = nullptr;
@@ -245,20 +238,23 @@ struct RestArgs {
 // Springs, triangles and hinges: one element of each per thread.
 __global__ void k_rest_elements(RestArgs a) {
   const int k = blockIdx.x * blockDim.x + threadIdx.x;
-  if (k < a.E) a.rest_L[k] = sim::spring_rest_length(a.p, a.spring_v[2 * k], a.spring_v[2 * k + 1], a.L_floor, a.floored + k);
-  if (k < a.T) a.tri_area[k] = sim::triangle_rest_area(a.p, a.tris + 3 * k);
-  if (k < a.H) sim::hinge_rest(a.p, a.hinge_v + 4 * k, a.hinge_K + 4 * k, a.hinge_w + k);
+  const DeviceRest& m = a.mesh;
+  if (k < m.n_springs)
+    a.rest_L[k] = sim::spring_rest_length(m.p, m.spring_v[2 * k], m.spring_v[2 * k + 1], a.L_floor, a.floored + k);
+  if (k < m.n_tris) a.tri_area[k] = sim::triangle_rest_area(m.p, m.tris + 3 * k);
+  if (k < m.n_hinges) sim::hinge_rest(m.p, m.hinge_v + 4 * k, a.hinge_K + 4 * k, a.hinge_w + k);
 }
 
 // Per vertex: mass, barrier weight and Q's row; per block: sum of m^2.
 __global__ void k_rest_vertices(RestArgs a) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   double m2[1] = {0};
-  if (v < a.n) {
-    const double m = sim::vertex_mass(v, a.vt_ptr, a.vt_idx, a.tri_area, a.density);
+  const DeviceRest& g = a.mesh;
+  if (v < g.n) {
+    const double m = sim::vertex_mass(v, g.vt_ptr, g.vt_idx, a.tri_area, a.density);
     a.mass[v] = m;
     a.barrier_c[v] = sim::barrier_weight(m, a.m_floor, a.bscale);
-    sim::bending_q_row(v, a.vh_ptr, a.vh_idx, a.hinge_v, a.hinge_K, a.hinge_w, a.nbr_ptr, a.nbr_idx,
+    sim::bending_q_row(v, g.vh_ptr, g.vh_idx, g.hinge_v, a.hinge_K, a.hinge_w, a.nbr_ptr, a.nbr_idx,
                        a.Q + a.nbr_ptr[v]);
     m2[0] = m * m;
   }
@@ -267,16 +263,12 @@ __global__ void k_rest_vertices(RestArgs a) {
 
 // out[0] = sum of part[0..nb) in a fixed order (one block).
 __global__ void __launch_bounds__(kCtrlThreads) k_sum_parts(const double* part, int nb, double* out) {
-  __shared__ double sh[kCtrlThreads];
+  __shared__ double sh[1][kCtrlThreads];
   double a = 0;
   for (int b = threadIdx.x; b < nb; b += blockDim.x) a += part[b];
-  sh[threadIdx.x] = a;
-  __syncthreads();
-  for (int w = blockDim.x / 2; w > 0; w >>= 1) {
-    if (threadIdx.x < w) sh[threadIdx.x] += sh[threadIdx.x + w];
-    __syncthreads();
-  }
-  if (threadIdx.x == 0) out[0] = sh[0];
+  sh[0][threadIdx.x] = a;
+  tree_sum(sh);
+  if (threadIdx.x == 0) out[0] = sh[0][0];
 }
 
 // The least index of a vertex with phi <= 0 in the barrier's field (first_inside).
@@ -627,18 +619,7 @@ void SimGpu::update_rest_state() {
   const int nbv = int((n + kRestBlock - 1) / kRestBlock);
   I.rest_part.reserve(size_t(nbv + 1) * sizeof(double));
   RestArgs r;
-  r.n = I.n;
-  r.E = I.n_springs;
-  r.T = I.n_tris;
-  r.H = I.n_hinges;
-  r.p = I.p.as<double>();
-  r.spring_v = I.spring_v.as<int32_t>();
-  r.tris = I.tris.as<int32_t>();
-  r.vt_ptr = I.vt_ptr.as<int32_t>();
-  r.vt_idx = I.vt_idx.as<int32_t>();
-  r.hinge_v = I.hinge_v.as<int32_t>();
-  r.vh_ptr = I.vh_ptr.as<int32_t>();
-  r.vh_idx = I.vh_idx.as<int32_t>();
+  r.mesh = device_rest();  // after the reserves above: its pointers are final
   r.nbr_ptr = I.nbr_ptr.as<int32_t>();
   r.nbr_idx = I.nbr_idx.as<int32_t>();
   r.rest_L = I.rest_L64.as<double>();

@@ -1,6 +1,10 @@
 """The add-on and the Blender batch script reach seamfit only through its public face:
 ``seamfit`` and the modules in ``seamfit.PUBLIC_MODULES``, and of those only the names in
-their ``__all__``. Everything below them is the implementation's and may change."""
+their ``__all__``. Everything below them is the implementation's and may change.
+
+The command line (``seamfit/commands``) is part of the package: it also uses the package's
+own support modules (files, limits, pictures, the batch runner), but of the domains
+(pattern, body, mesh, sim, opt) only what they export, never a module inside them."""
 import ast
 import importlib
 
@@ -10,6 +14,8 @@ import seamfit
 from common import REPO
 
 FRONT_ENDS = sorted((REPO / "addon").glob("*.py")) + [REPO / "scripts" / "batch_grade.py"]
+COMMANDS = REPO / "native" / "python" / "seamfit" / "commands"
+DOMAINS = ("pattern", "body", "mesh", "sim", "opt")
 
 
 def _public(module: str) -> set[str]:
@@ -94,3 +100,35 @@ def test_every_public_module_declares_what_it_offers(module):
     mod = importlib.import_module(f"seamfit.{module}")
     assert mod.__all__, module
     assert [n for n in mod.__all__ if not hasattr(mod, n)] == []
+
+
+def command_problems(path) -> list[str]:
+    """Relative imports of a command module that reach inside a domain or past its __all__."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if not (isinstance(node, ast.ImportFrom) and node.level == 2 and node.module):
+            continue
+        parts = node.module.split(".")
+        if parts[0] not in DOMAINS:
+            continue
+        where = f"{path.name}:{node.lineno}"
+        if len(parts) > 1:
+            out.append(f"{where}: seamfit.{node.module} is inside a domain")
+        else:
+            public = _public(f"seamfit.{parts[0]}")
+            out += [f"{where}: seamfit.{parts[0]}.{a.name} is not in its __all__" for a in node.names
+                    if a.name not in public]
+    return out
+
+
+@pytest.mark.parametrize("path", sorted(COMMANDS.glob("*.py")), ids=lambda p: p.name)
+def test_command_uses_only_what_the_domains_export(path):
+    assert command_problems(path) == []
+
+
+def test_the_command_check_sees_a_private_use(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text("def run():\n    from ..pattern.dxf_sizes import one_size\n    from ..opt import reindex\n"
+                   "    from ..fileio import atomic_write_text\n")
+    assert command_problems(bad) == ["bad.py:2: seamfit.pattern.dxf_sizes is inside a domain",
+                                     "bad.py:3: seamfit.opt.reindex is not in its __all__"]

@@ -63,12 +63,12 @@ def test_grade_without_matplotlib_writes_its_results(tmp_path):
 
 
 def test_a_drawing_error_costs_only_the_picture(tmp_path, capsys, monkeypatch):
-    from seamfit.sim import render
+    import seamfit.sim
 
     def broken(path, *a, **k):
         Path(path).write_bytes(b"half a picture")
         raise ValueError("no room on the canvas\nsecond line")
-    monkeypatch.setattr(render, "render_drape", broken)
+    monkeypatch.setattr(seamfit.sim, "render_drape", broken)     # the name the command uses
     out = tmp_path / "drape"
     assert cli.main(["drape", str(PENCIL), str(B0), "--out", str(out), *QUICK, "-q"]) == 0
     err = capsys.readouterr().err

@@ -18,11 +18,11 @@ from .measure import MEASUREMENTS, body_measurements, cross_section_girth
 from .measurement_sets import MEASUREMENT_UNITS, MeasurementError, MeasurementSet, load_measurement_sets
 from .shape_model import hm08_faces, hm08_landmarks
 from .made_to_measure import MeasuredBody, from_measurements
-from .register import Registration, RegistrationError, check_registrable, register_body, same_topology, target_for
+from .register import Registration, RegistrationError, check_registrable, register_body, same_topology, target_for, check_frame
 
 __all__ = ["Body", "BodyReport", "MEASUREMENTS", "MeasuredBody", "MeasurementError", "MeasurementSet",
            "Registration", "RegistrationError", "SignedDistanceField", "body_measurements", "build_sdf",
            "check_body", "check_registrable", "cross_section_girth", "from_measurements", "hm08_landmarks",
            "load_body", "load_measurement_sets", "register_body", "save_body", "validate_body",
-           "MEASUREMENT_UNITS", "checked_body", "clear_memory_cache", "hm08_faces", "same_topology",
+           "MEASUREMENT_UNITS", "check_frame", "checked_body", "clear_memory_cache", "hm08_faces", "same_topology",
            "target_for"]

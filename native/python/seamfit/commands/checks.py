@@ -29,7 +29,7 @@ def checked_pattern(path, edge_length_cm: float | None = None, warn=None, *, dra
     ``drape``, a DXF's stitches and placements present (seamfit.pattern.seams)."""
     from ..limits import check_mesh_size
     from ..pattern import check_pattern, load_pattern
-    from ..pattern.seams import check_drapable
+    from ..pattern import check_drapable
     pattern = load_pattern(path)
     for m in check_pattern(pattern).warnings:
         if warn is not None:

@@ -80,8 +80,8 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from ..pattern.dxf import flavor_from_path
-    from ..pattern.io import read_pattern_file
+    from ..pattern import flavor_from_path
+    from ..pattern import read_pattern_file
     from .checks import number
 
     if args.out is None and args.propose_seams is None:
@@ -90,7 +90,7 @@ def run(args) -> int:
     if args.seam_allowance is not None:
         number("--seam-allowance", args.seam_allowance, allow_zero=True)
     inputs = [args.input, args.seams, args.rul]
-    from ..pattern.seams import sidecar_path
+    from ..pattern import sidecar_path
     if args.input.suffix.lower() == ".dxf":
         inputs.append(sidecar_path(args.input))
     outputs: list[Path] = []
@@ -103,8 +103,8 @@ def run(args) -> int:
         check_not_an_input(out, inputs)
     # read (and check) before anything is written
     if args.input.suffix.lower() == ".dxf":
-        from ..pattern.dxf_sizes import one_size
-        from ..pattern.io import read_dxf_size_file
+        from ..pattern import one_size
+        from ..pattern import read_dxf_size_file
         sizes = read_dxf_size_file(args.input, dxf_units=args.dxf_units, seams=args.seams, size=args.size,
                                    rul=args.rul)
         if args.size is None and len(sizes.patterns) > 1 and kind in ("svg", "dxf"):
@@ -119,7 +119,7 @@ def run(args) -> int:
             print(f"seamfit convert: note: {m}", file=sys.stderr)
     written = []
     if args.propose_seams is not None:
-        from ..pattern.seams import propose_stitches, sidecar_dict, write_sidecar
+        from ..pattern import propose_stitches, sidecar_dict, write_sidecar
         proposals = propose_stitches(pattern)
         with OutputSet(args.propose_seams.parent, inputs=inputs, force=args.force,
                        files=[args.propose_seams.name]) as tmp:
@@ -146,7 +146,7 @@ def run(args) -> int:
 
 def _all_sizes(sizes, args, kind: str, flavor: str, inputs) -> int:
     """Every size of a multi-size DXF: nested in one SVG, or again in ASTM's multi-size form."""
-    from ..pattern.dxf import flavor_from_path
+    from ..pattern import flavor_from_path
     labels = sizes.labels
     base = labels.index(sizes.sample_size) if sizes.sample_size else 0
     patterns = [sizes.patterns[lab] for lab in labels]
@@ -166,7 +166,7 @@ def _all_sizes(sizes, args, kind: str, flavor: str, inputs) -> int:
             write_svg(tmp / out.name, [patterns[k] for k in order], labels=[labels[k] for k in order],
                       title=Path(args.input).name)
         else:
-            from ..pattern.dxf_sizes import write_size_run_dxf
+            from ..pattern import write_size_run_dxf
             write_size_run_dxf(tmp / out.name, patterns, labels, base)
     if not args.quiet:
         for m in sizes.notes:

@@ -95,10 +95,10 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -
     from ..device import choose_device
     from ..fileio import atomic_write_text
     from ..mesh import build_sewn_mesh, write_obj
-    from ..opt.sdf_region import body_field
+    from ..opt import body_field
     from ..sim import Fabric, SimSettings, Simulator
-    from ..sim.dressing import initial_positions
-    from ..sim.multilevel import drape_coarse_to_fine
+    from ..sim import initial_positions
+    from ..sim import drape_coarse_to_fine
 
     def say(msg: str) -> None:
         if console is not None:
@@ -176,7 +176,7 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -
         report["pictures"] = skipped(["drape.png"])
     else:
         def draw(path):
-            from ..sim.render import render_drape
+            from ..sim import render_drape
             render_drape(path, result.x, mesh.triangles, mesh.triangle_panel, body.vertices, body.faces,
                          title=f"{pattern.garment_id or args.pattern.stem} on {args.body.stem}")
         report["pictures"] = draw_pictures(tmp, {"drape.png": draw}, command="drape")

@@ -61,7 +61,7 @@ def add_grade_options(p, *, truth: bool) -> None:
     ``grade-run`` and the batch jobs (the settings from seamfit.settings' table; ``truth``:
     also --truth, a pattern drafted for the one target)."""
     from .. import settings
-    from ..opt.costs import STRENGTH_NAMES
+    from ..opt import STRENGTH_NAMES
     settings.add_options(p, "grade")
     for name in STRENGTH_NAMES:
         p.add_argument(f"--{name}", type=float, default=None, metavar="DELTA",
@@ -88,7 +88,7 @@ def run(args) -> int:
     base_pattern = checked_pattern(args.pattern, args.edge_length, warn)
     truth = None
     if args.truth is not None:
-        from ..pattern.compare import baseline_errors
+        from ..pattern import baseline_errors
         truth_pattern = load_pattern(args.truth)
         # scored against the base now: a truth with no panel in common fails here, not after the search
         truth = (truth_pattern, baseline_errors(base_pattern, truth_pattern).to_dict())
@@ -143,8 +143,8 @@ def settings_from_args(args, base_pattern):
     from dataclasses import replace
 
     from .. import settings as seamfit_settings
-    from ..opt.grade import GradeSettings
-    from ..opt.presets import preset
+    from .. import GradeSettings
+    from ..opt import preset
     strengths = preset(args.preset, base_pattern.garment_type).strengths
     overrides = _strength_overrides(args)
     if overrides:
@@ -159,7 +159,7 @@ def _strength_overrides(args) -> dict:
     """--fix ... --seam as given, each checked as the strengths themselves check it; --fix
     also > 0: R^fix shapes the search's preconditioner, which needs it positive definite."""
     from ..errors import SeamfitError
-    from ..opt.costs import STRENGTH_NAMES, Strengths
+    from ..opt import STRENGTH_NAMES, Strengths
     overrides = {}
     for name in STRENGTH_NAMES:
         value = getattr(args, name)
@@ -179,7 +179,7 @@ def _strength_overrides(args) -> dict:
 def _registered_target(args, base_body, target_body, *, command: str = "grade"):
     """The target on the base body's mesh: itself when it shares that mesh, else registered
     onto it (seamfit.body.register; its checks fail at once, before any fitting)."""
-    from ..body.register import check_frame, check_registrable, same_topology, target_for
+    from ..body import check_frame, check_registrable, same_topology, target_for
     if same_topology(base_body, target_body):
         check_frame(target_body)            # not registered, but a body lying down (Y-up) is refused now
         return target_body, None
@@ -198,7 +198,7 @@ def _registered_target(args, base_body, target_body, *, command: str = "grade"):
 def _grade(args, settings, progress, base_pattern, base_body, target_body, truth, tmp: Path,
            registration=None) -> dict:
     """Grade, then write the set into ``tmp`` (moved to --out afterwards); the report."""
-    from ..opt.grade import grade
+    from .. import grade
     result = grade(base_pattern, base_body, target_body, settings, progress=progress)
     return write_graded(args, result, progress, base_pattern, base_body, target_body, truth, tmp, registration)
 
@@ -218,7 +218,7 @@ def write_graded(args, result, progress, base_pattern, base_body, target_body, t
         report["registration"] = registration.report()
     report.update(extra_report or {})
     if truth is not None:
-        from ..pattern.compare import landmark_errors
+        from ..pattern import landmark_errors
         truth_pattern, base_unchanged = truth
         report["accuracy"] = {"truth": str(args.truth),
                               "graded": landmark_errors(result.pattern, truth_pattern).to_dict(),
@@ -281,10 +281,10 @@ def _scaled_errors(base_pattern, base_body, target_body, truth_pattern) -> dict:
     """The simplest grading a pattern maker could do by hand, scored on the same truth: each
     panel scaled by the bodies' girth ratio across and height ratio along
     (seamfit.pattern.scale), from the bodies' own measurements."""
-    from ..body.measure import body_measurements
+    from ..body import body_measurements
     from ..errors import SeamfitError
-    from ..pattern.compare import landmark_errors
-    from ..pattern.scale import proportional_scale
+    from ..pattern import landmark_errors
+    from ..pattern import proportional_scale
     try:
         m0, m1 = body_measurements(base_body), body_measurements(target_body)
         scaled, ratios = proportional_scale(base_pattern, m0, m1)

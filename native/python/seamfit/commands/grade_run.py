@@ -52,7 +52,7 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from ..body import checked_body, load_measurement_sets
-    from ..opt.size_run import base_place, base_size_label
+    from ..opt import base_place, base_size_label
     from .checks import checked_pattern
 
     out = Path(args.out)
@@ -134,7 +134,7 @@ def _folder_names(labels: list[str]) -> list[str]:
 def _run(args, settings, base_pattern, base_body, targets, base_index, base_label, tmp: Path) -> dict:
     import time
     from ..fileio import atomic_write_text, json_default
-    from ..opt.size_run import run_sizes, summary_row
+    from ..opt import run_sizes, summary_row
     from ..pictures import draw_pictures, skipped
     from ..progress import ConsoleProgress, for_grading
 
@@ -189,7 +189,7 @@ def _run(args, settings, base_pattern, base_body, targets, base_index, base_labe
         summary["pictures"] = skipped(NEST_PICTURES)
     else:
         def nest(path):
-            from ..pattern.nest_png import render_nest_png
+            from ..pattern import render_nest_png
             render_nest_png(path, _nest_order(patterns, base_index), labels=_nest_order(run.labels, base_index),
                             title=f"{name}: graded nest of {len(patterns)} sizes")
         summary["pictures"] = draw_pictures(tmp, {"nest.png": nest}, command="grade-run")
@@ -213,7 +213,7 @@ def _nest_order(items, base_index):
 
 def _write_nest(tmp: Path, patterns, labels, base_index, name, args) -> None:
     from ..pattern import write_svg
-    from ..pattern.dxf_sizes import write_graded_dxf, write_size_run_dxf
+    from ..pattern import write_graded_dxf, write_size_run_dxf
     nest, nest_labels = _nest_order(patterns, base_index), _nest_order(labels, base_index)
     write_svg(tmp / "nest.svg", nest, labels=nest_labels, title=f"{name}: graded nest of {len(patterns)} sizes")
     write_size_run_dxf(tmp / "nest.dxf", patterns, labels, base_index)

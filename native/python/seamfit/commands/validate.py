@@ -37,7 +37,7 @@ exit status: 0 valid (warnings allowed unless --strict), 1 validation errors fou
 
 
 def register(subparsers) -> None:
-    from ..pattern.validate import SEAM_TOLERANCE_CM, SEAM_TOLERANCE_REL
+    from ..pattern import SEAM_TOLERANCE_CM, SEAM_TOLERANCE_REL
     p = add_command(subparsers, "validate", EPILOG)
     p.add_argument("file", metavar="FILE", help="pattern .json (sewpat-1 or GarmentCode "
                    "*_specification.json), pattern .dxf (AAMA/ASTM) or body mesh .obj/.ply")
@@ -83,7 +83,7 @@ def run(args) -> int:
 
 def _run_pattern(args) -> int:
     from ..output_set import check_not_an_input
-    from ..pattern.io import read_pattern_file
+    from ..pattern import read_pattern_file
 
     if not (args.seam_tolerance >= 0 and math.isfinite(args.seam_tolerance) and 0 <= args.seam_tolerance_rel < 1):
         raise SeamfitError("--seam-tolerance must be a finite number >= 0 and --seam-tolerance-rel in [0, 1)")
@@ -94,7 +94,7 @@ def _run_pattern(args) -> int:
     dxf_units, seams = getattr(args, "dxf_units", None), getattr(args, "seams", None)
     rul = getattr(args, "rul", None)
     if Path(args.file).suffix.lower() == ".dxf" and size is None:
-        from ..pattern.io import read_dxf_size_file
+        from ..pattern import read_dxf_size_file
         sizes = read_dxf_size_file(args.file, dxf_units=dxf_units, seams=seams, rul=rul)
         if len(sizes.patterns) > 1:
             if args.fix is not None or args.svg is not None:
@@ -111,7 +111,7 @@ def _run_pattern(args) -> int:
 
 def _check_one(pattern, fmt: str, args, size: str | None) -> int:
     from ..pattern import save_pattern, validate_pattern, write_svg
-    from ..pattern.validate import fix_pattern
+    from ..pattern import fix_pattern
 
     report = validate_pattern(pattern, seam_tolerance_cm=args.seam_tolerance,
                               seam_tolerance_rel=args.seam_tolerance_rel)

@@ -11,7 +11,8 @@ from .parametrization import Parametrization
 from .presets import PRESETS, Preset, preset, preset_for_garment
 from .regularizers import CORNER_WEIGHT, Regularizers
 from .seam import SeamLength, seam_segments
-from .size_run import base_place, base_size_label
+from .sdf_region import body_field
+from .size_run import base_place, base_size_label, run_sizes, summary_row
 from .transfer import DEFAULT_BANDWIDTH, transfer_garment, vertex_deformation
 
 __all__ = [
@@ -20,4 +21,5 @@ __all__ = [
     "Strengths", "initialize_pattern", "positional_weights", "preset", "preset_for_garment", "sample_sdf", "seam_segments",
     "transfer_garment", "vertex_deformation",
     "STRENGTH_HELP", "STRENGTH_NAMES", "base_place", "base_size_label", "ease_report",
+    "body_field", "run_sizes", "summary_row",
 ]

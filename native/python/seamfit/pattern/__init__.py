@@ -13,7 +13,11 @@ from .validate import ValidationReport, check_pattern, fix_pattern, validate_pat
 from .allowance import ALLOWANCE_CORNERS
 from .dxf_sizes import one_size, read_dxf_sizes, write_graded_dxf, write_size_run_dxf
 from .edit import arc_through, cubic_through, edges_in_order, edit_edges
-from .io import read_dxf_size_file
+from .dxf import flavor_from_path
+from .io import read_dxf_size_file, read_pattern_file
+from .nest_png import render_nest_png
+from .scale import proportional_scale
+from .validate import SEAM_TOLERANCE_CM, SEAM_TOLERANCE_REL
 from .model import polyline_length
 from .points import join_edges, split_edge
 from .seams import (apply_sidecar, check_drapable, propose_stitches, sidecar_dict, sidecar_path,
@@ -29,4 +33,5 @@ __all__ = ["Edge", "Panel", "Pattern", "Placement", "Stitch", "StitchSide", "ran
            "arc_through", "cubic_through", "edges_in_order", "edit_edges", "read_dxf_size_file",
            "polyline_length", "join_edges", "split_edge", "apply_sidecar", "check_drapable",
            "propose_stitches", "sidecar_dict", "sidecar_path", "write_sidecar", "pattern_from_dict",
-           "pattern_to_dict"]
+           "pattern_to_dict", "flavor_from_path", "read_pattern_file", "render_nest_png", "proportional_scale",
+           "SEAM_TOLERANCE_CM", "SEAM_TOLERANCE_REL"]

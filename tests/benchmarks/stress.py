@@ -2,7 +2,7 @@
 limit, reporting NaN, crashes, hangs, rising checkpoint objectives and wall time.
 
     python tests/benchmarks/stress.py run --runs 1000 --jobs 16 --out stress.json [--seed 1]
-    python tests/benchmarks/stress.py report stress.json [--docs docs]
+    python tests/benchmarks/stress.py report stress.json [--notes FILE] [--docs docs]
 
 A run draws, from its own seed:
 * a garment of sample_files (the pencil skirt, the circle skirt, the bodice, base size 6)
@@ -33,7 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[2]
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
 SAMPLES = ROOT / "sample_files"
 GARMENTS = ("gc_pencil_skirt", "gc_circle_skirt", "fs_bodice")
 BODIES = ("women_size06", "women_size10", "women_apple")
@@ -201,8 +202,9 @@ def summary(rows: list[dict]) -> list[str]:
     return lines
 
 
-def report(path: Path, docs: Path, note: str | None = None) -> Path:
+def report(path: Path, docs: Path, notes: Path | None = None) -> Path:
     data = json.loads(path.read_text())
+    note = notes.read_text().strip() if notes else None
     rows = data["runs"]
     bad = [r for r in rows if r["outcome"] not in ("ok", "refused")]
     refused = sorted({str(r.get("message", ""))[:120] for r in rows if r["outcome"] == "refused"})
@@ -245,13 +247,14 @@ def main(argv=None) -> int:
     p = sub.add_parser("report")
     p.add_argument("results", type=Path)
     p.add_argument("--docs", type=Path, default=ROOT / "docs")
-    p.add_argument("--note", default=None, help="a paragraph put above the table")
+    p.add_argument("--notes", type=Path, default=HERE / "stress_note.md",
+                   help="the reading of the run, put above the table (default tests/benchmarks/stress_note.md)")
     a = ap.parse_args(argv)
     if a.cmd == "run":
         rows = run(a.runs, a.seed, a.jobs, a.timeout, a.out)
         print("\n".join(summary(rows)))
         return 0
-    print(f"wrote {report(a.results, a.docs, a.note)}")
+    print(f"wrote {report(a.results, a.docs, a.notes)}")
     return 0
 
 

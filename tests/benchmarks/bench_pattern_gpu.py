@@ -128,7 +128,7 @@ def cmd_ncu_target(args) -> int:
     return 0
 
 
-def main() -> int:
+def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run")
@@ -142,7 +142,7 @@ def main() -> int:
     t = sub.add_parser("ncu-target")
     t.add_argument("--edge", type=float, default=0.45)
     t.add_argument("--reps", type=int, default=5)
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     return {"run": cmd_run, "report": cmd_report, "ncu-target": cmd_ncu_target}[args.cmd](args)
 
 

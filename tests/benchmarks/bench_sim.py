@@ -2,10 +2,13 @@
 descent and Newton, on a few garments at two mesh resolutions, plus (with
 --sweep) the full drape of every shared pattern on its own body.
 
-    PYTHONPATH=native/python python tests/benchmarks/bench_sim.py [--quick] [--sweep DATA_DIR]
+    PYTHONPATH=native/python python tests/benchmarks/bench_sim.py run --out OUT.json [--quick] [--sweep DATA_DIR]
+    PYTHONPATH=native/python python tests/benchmarks/bench_sim.py report OUT.json
 
-Writes docs/img/sim_convergence.png, docs/simulator_results.md and
-docs/results/data/simulator_results.json (and prints the tables). Each case is
+``run`` writes the numbers to OUT.json, docs/img/sim_convergence.png (and with --sweep
+docs/img/drapes.png) and docs/simulator_results.md from OUT.json, and prints the tables;
+``report`` rewrites the page from OUT.json alone (the residual histories behind the
+pictures are not kept). --docs names another folder for the page and pictures. Each case is
 meshed, dressed and sewn once (gravity off, Chebyshev); both solvers then settle
 the same sewn state under gravity, so the curves compare the solvers, not the
 dressing. Timings depend on the machine and its load; the report says which
@@ -31,6 +34,9 @@ from seamfit.mesh import build_sewn_mesh  # noqa: E402
 from seamfit.pattern import load_pattern  # noqa: E402
 from seamfit.sim import Fabric, SimSettings, Simulator  # noqa: E402
 from seamfit.sim.dressing import initial_positions  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_cli import Commands  # noqa: E402
 
 CASES = [("gc_pencil_skirt", "size06"), ("fs_bodice", "size06"), ("gc_circle_skirt", "size06")]
 BODY_FILE = {"man_medium": "men_medium"}
@@ -176,8 +182,42 @@ def write_md(path: Path, conv: list[dict], sw: list[dict], machine: str) -> None
     path.write_text("\n".join(lines))
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def cmd_run(args) -> int:
+    machine = f"{platform.processor() or platform.machine()}, {os.cpu_count()} logical CPUs"
+    if args.no_convergence:
+        # keep the convergence rows of the last run (their plot stays as it is)
+        conv = json.loads(args.out.read_text()).get("convergence", []) if args.out.exists() else []
+    else:
+        conv = convergence(args.data, [2.0] if args.quick else [2.0, 1.0], 30.0 if args.quick else args.budget,
+                           args.tolerance)
+    pictures: list = []
+    sw = sweep(args.sweep, 60.0 if args.quick else 300.0, args.sweep_only, args.sweep_bodies, args.sweep_base,
+               pictures) if args.sweep else []
+    if conv and not args.no_convergence:
+        plot(conv, args.docs / "img" / "sim_convergence.png")
+    if pictures:
+        from seamfit.sim.render import render_front_grid
+        # one picture per garment, on the base body
+        base = [item for item in pictures if item[0].endswith("/ size06")] or pictures
+        render_front_grid(args.docs / "img" / "drapes.png", base)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(
+        {"machine": machine, "command": " ".join(sys.argv),
+         "convergence": [{k: v for k, v in r.items() if not k.startswith("history")} for r in conv],
+         "sweep": sw}, indent=1))
+    return cmd_report(argparse.Namespace(results=args.out, docs=args.docs))
+
+
+def cmd_report(args) -> int:
+    data = json.loads(args.results.read_text())
+    write_md(args.docs / "simulator_results.md", data["convergence"], data["sweep"], data["machine"])
+    return 0
+
+
+def main(argv=None) -> int:
+    cli = Commands(__doc__)
+    ap = cli.add_run(cmd_run)
+    ap.add_argument("--docs", type=Path, default=ROOT / "docs", help="where the page and pictures go")
     ap.add_argument("--data", type=Path, default=ROOT / "sample_files", help="patterns/ and bodies/ root")
     ap.add_argument("--quick", action="store_true", help="one resolution, short budgets")
     ap.add_argument("--budget", type=float, default=120.0, help="seconds per solver run")
@@ -186,34 +226,10 @@ def main() -> int:
     ap.add_argument("--sweep-only", nargs="*", default=None, help="garment ids for --sweep")
     ap.add_argument("--sweep-bodies", nargs="*", default=None, help="body ids for --sweep")
     ap.add_argument("--sweep-base", nargs="*", default=None, help="garment ids for --sweep, on the base body only")
-    ap.add_argument("--no-convergence", action="store_true")
-    ap.add_argument("--out", type=Path, default=ROOT / "docs")
-    args = ap.parse_args()
-    machine = f"{platform.processor() or platform.machine()}, {os.cpu_count()} logical CPUs"
-    data = args.out / "results" / "data"  # the raw numbers beside the other benchmarks' data
-    previous = data / "simulator_results.json"
-    if args.no_convergence:
-        # keep the convergence rows of the last run (their plot stays as it is)
-        conv = json.loads(previous.read_text()).get("convergence", []) if previous.exists() else []
-    else:
-        conv = convergence(args.data, [2.0] if args.quick else [2.0, 1.0], 30.0 if args.quick else args.budget,
-                           args.tolerance)
-    pictures: list = []
-    sw = sweep(args.sweep, 60.0 if args.quick else 300.0, args.sweep_only, args.sweep_bodies, args.sweep_base,
-               pictures) if args.sweep else []
-    if conv and not args.no_convergence:
-        plot(conv, args.out / "img" / "sim_convergence.png")
-    if pictures:
-        from seamfit.sim.render import render_front_grid
-        # one picture per garment, on the base body
-        base = [item for item in pictures if item[0].endswith("/ size06")] or pictures
-        render_front_grid(args.out / "img" / "drapes.png", base)
-    data.mkdir(parents=True, exist_ok=True)
-    (data / "simulator_results.json").write_text(json.dumps(
-        {"machine": machine, "convergence": [{k: v for k, v in r.items() if not k.startswith("history")} for r in conv],
-         "sweep": sw}, indent=1))
-    write_md(args.out / "simulator_results.md", conv, sw, machine)
-    return 0
+    ap.add_argument("--no-convergence", action="store_true",
+                    help="keep the convergence rows of the --out file (e.g. to add a sweep)")
+    cli.add_report(cmd_report, nargs=None)
+    return cli.main(argv)
 
 
 if __name__ == "__main__":

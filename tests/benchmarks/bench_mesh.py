@@ -1,14 +1,17 @@
 """Mesh every shared pattern (all garments, all bodies) and tabulate size, quality and time.
 
-    PYTHONPATH=native/python python tests/benchmarks/bench_mesh.py [--data DIR] [--out FILE]
+    PYTHONPATH=native/python python tests/benchmarks/bench_mesh.py run --out OUT.json [--data DIR]
         [--edge-length CM] [--fine-garment ID] [--fine-triangles N] [--compare-algorithms]
+    PYTHONPATH=native/python python tests/benchmarks/bench_mesh.py report OUT.json
 
-Writes the table to docs/meshing_results.md (atomically) and prints it. Exits 1 if any
-pattern fails to mesh or any stitch has unmatched vertex counts.
+``run`` writes the numbers to OUT.json and docs/meshing_results.md from them (atomically),
+and prints the table; it exits 1 if any pattern fails to mesh or any stitch has unmatched
+vertex counts. ``report`` rewrites the page from OUT.json. --docs names another folder for
+the page.
 """
 from __future__ import annotations
 
-import argparse
+import json
 import math
 import platform
 import sys
@@ -24,6 +27,9 @@ from seamfit.fileio import atomic_write_text  # noqa: E402
 from seamfit.mesh import build_sewn_mesh  # noqa: E402
 from seamfit.mesh.triangulate import ALGORITHMS, DEFAULT_ALGORITHM  # noqa: E402
 from seamfit.pattern import load_pattern  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_cli import Commands  # noqa: E402
 
 COLUMNS = ("garment", "body", "h cm", "panels", "vertices", "triangles", "stitches", "pairs",
            "min angle", "min angle interior", "seam mismatch", "max area err %", "seconds")
@@ -79,19 +85,7 @@ def summary(rows: list[dict]) -> str:
             f"seconds per pattern median {np.median(s):.2f}, max {s.max():.2f}, total {s.sum():.1f}")
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--data", type=Path, default=Path("/work/shared/data/patterns"))
-    ap.add_argument("--out", type=Path, default=ROOT / "docs" / "meshing_results.md")
-    ap.add_argument("--edge-length", type=float, default=1.5)
-    ap.add_argument("--fine-garment", default="gc_pants",
-                    help="garment (its size06) also meshed finely")
-    ap.add_argument("--fine-triangles", type=int, default=60000,
-                    help="about this many triangles for the fine mesh")
-    ap.add_argument("--compare-algorithms", action="store_true",
-                    help="also mesh everything with every gmsh algorithm and summarise")
-    args = ap.parse_args(argv)
-
+def cmd_run(args) -> int:
     files = sorted(args.data.glob("*/*/pattern.json"))
     if not files:
         print(f"no patterns under {args.data}", file=sys.stderr)
@@ -120,20 +114,36 @@ def main(argv=None) -> int:
             fine_rows.append(mesh_one(fine_file, h_fine))
             print(" | ".join(fmt(fine_rows[-1])), flush=True)
 
-    algo_rows = []
+    algorithms = []
     if args.compare_algorithms:
         for algo in ALGORITHMS:
             res = [mesh_one(f, args.edge_length, algo) for f in files]
-            algo_rows.append((algo, res))
+            # the comparison keeps its totals, not every pattern's mesh again
+            algorithms.append({"algorithm": algo, "triangles": sum(r["triangles"] for r in res),
+                               "min angle": min(r["min angle"] for r in res),
+                               "median min angle": float(np.median([r["min angle"] for r in res])),
+                               "seconds": sum(r["seconds"] for r in res)})
             print(algo, summary(res), flush=True)
 
+    meta = {"command": " ".join(sys.argv), "data": str(args.data), "edge_length_cm": args.edge_length,
+            "algorithm": DEFAULT_ALGORITHM, "python": f"{platform.python_implementation()} {platform.python_version()}",
+            "machine": platform.machine(), "fine_garment": args.fine_garment, "fine_triangles": args.fine_triangles}
+    data = {"meta": meta, "rows": rows, "fine": fine_rows, "algorithms": algorithms, "failures": failures}
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(args.out, json.dumps(data, indent=1) + "\n")
+    print(summary(rows))
+    write_page(args.docs / "meshing_results.md", data)
+    return 1 if failures else 0
+
+
+def write_page(path: Path, d: dict) -> None:
+    m, rows = d["meta"], d["rows"]
     text = [
         "# Meshing results",
         "",
-        f"Every pattern under `{args.data}` meshed by `seamfit.mesh.build_sewn_mesh` at "
-        f"{args.edge_length:g} cm with gmsh {DEFAULT_ALGORITHM} "
-        f"(`tests/benchmarks/bench_mesh.py`; {platform.python_implementation()} "
-        f"{platform.python_version()}, {platform.machine()}, times on a shared 2-core machine, "
+        f"Every pattern under `{m['data']}` meshed by `seamfit.mesh.build_sewn_mesh` at "
+        f"{m['edge_length_cm']:g} cm with gmsh {m['algorithm']} "
+        f"(`tests/benchmarks/bench_mesh.py`; {m['python']}, {m['machine']}, times on a shared 2-core machine, "
         "so they are indicative). Angles in degrees; \"interior\" excludes triangles touching an "
         "outline corner sharper than 50 deg (none in these patterns: dart tips point into the panel). "
         "Area error: |mesh area - outline area| / outline area, worst panel. Seam mismatch: the "
@@ -144,28 +154,44 @@ def main(argv=None) -> int:
         summary(rows) if rows else "no pattern meshed",
         "",
     ]
-    if failures:
-        text += ["## Failures", ""] + [f"- {x}" for x in failures] + [""]
-    if fine_rows:
-        text += ["## Fine mesh", "", f"{args.fine_garment}/size06 at about {args.fine_triangles} triangles:", "",
-                 table(fine_rows), ""]
-    if algo_rows:
+    if d["failures"]:
+        text += ["## Failures", ""] + [f"- {x}" for x in d["failures"]] + [""]
+    if d["fine"]:
+        text += ["## Fine mesh", "", f"{m['fine_garment']}/size06 at about {m['fine_triangles']} triangles:", "",
+                 table(d["fine"]), ""]
+    if d["algorithms"]:
         text += ["## gmsh 2D algorithms", "",
-                 f"All patterns at {args.edge_length:g} cm with each algorithm (Laplacian smoothing as "
+                 f"All patterns at {m['edge_length_cm']:g} cm with each algorithm (Laplacian smoothing as "
                  "configured in `seamfit.mesh.triangulate`):", "",
                  "| algorithm | triangles | min angle | median per-pattern min angle | seconds |",
                  "|---|---|---|---|---|"]
-        for algo, res in algo_rows:
-            text.append(f"| {algo} | {sum(r['triangles'] for r in res)} | "
-                        f"{min(r['min angle'] for r in res):.1f} | "
-                        f"{np.median([r['min angle'] for r in res]):.1f} | "
-                        f"{sum(r['seconds'] for r in res):.1f} |")
+        text += [f"| {a['algorithm']} | {a['triangles']} | {a['min angle']:.1f} | {a['median min angle']:.1f} | "
+                 f"{a['seconds']:.1f} |" for a in d["algorithms"]]
         text.append("")
     text += ["## All patterns", "", table(rows), ""]
-    atomic_write_text(args.out, "\n".join(text))
-    print(summary(rows))
-    print(f"wrote {args.out}")
-    return 1 if failures else 0
+    atomic_write_text(path, "\n".join(text))
+    print(f"wrote {path}")
+
+
+def cmd_report(args) -> int:
+    write_page(args.docs / "meshing_results.md", json.loads(args.results.read_text()))
+    return 0
+
+
+def main(argv=None) -> int:
+    cli = Commands(__doc__)
+    ap = cli.add_run(cmd_run)
+    ap.add_argument("--docs", type=Path, default=ROOT / "docs", help="where the page goes")
+    ap.add_argument("--data", type=Path, default=Path("/work/shared/data/patterns"))
+    ap.add_argument("--edge-length", type=float, default=1.5)
+    ap.add_argument("--fine-garment", default="gc_pants",
+                    help="garment (its size06) also meshed finely")
+    ap.add_argument("--fine-triangles", type=int, default=60000,
+                    help="about this many triangles for the fine mesh")
+    ap.add_argument("--compare-algorithms", action="store_true",
+                    help="also mesh everything with every gmsh algorithm and summarise")
+    cli.add_report(cmd_report, nargs=None)
+    return cli.main(argv)
 
 
 if __name__ == "__main__":

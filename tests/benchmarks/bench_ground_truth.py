@@ -3,20 +3,27 @@
 For every garment in the pattern data, the unchanged base pattern (size06) is compared
 with the same garment drafted by its rule-based system for each other body
 (``seamfit.pattern.compare.baseline_errors``: landmark distances after a rigid alignment
-per panel). Grading must beat these numbers. Prints a table and writes
-docs/ground_truth_baseline.md.
+per panel). Grading must beat these numbers.
 
-    PYTHONPATH=native/python python tests/benchmarks/bench_ground_truth.py [--data DIR] [--out FILE]
+    PYTHONPATH=native/python python tests/benchmarks/bench_ground_truth.py run --out OUT.json [--data DIR]
+    PYTHONPATH=native/python python tests/benchmarks/bench_ground_truth.py report OUT.json
+
+``run`` prints a table and writes the numbers to OUT.json and docs/ground_truth_baseline.md
+from them; ``report`` rewrites the page from OUT.json. --docs names another folder for the page.
 """
 from __future__ import annotations
 
-import argparse
+import json
+import platform
 import sys
 import time
 from pathlib import Path
 
 from seamfit.fileio import atomic_write_text
 from seamfit.pattern import baseline_errors, load_pattern
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_cli import Commands  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = Path("/work/shared/data/patterns")
@@ -31,9 +38,18 @@ def run(data: Path, base_body: str = BASE) -> list[dict]:
         for bdir in sorted(p for p in gdir.iterdir() if p.is_dir() and p.name != base_body):
             if not (bdir / "pattern.json").exists():
                 continue
-            rep = baseline_errors(base, load_pattern(bdir / "pattern.json"))
-            rows.append({"garment": gdir.name, "body": bdir.name, "report": rep})
+            rows.append(_pair(gdir.name, bdir.name, baseline_errors(base, load_pattern(bdir / "pattern.json"))))
     return rows
+
+
+def _pair(garment: str, body: str, rep) -> dict:
+    """What the page shows of one pair's LandmarkReport."""
+    per = [p.perimeter_diff_cm for p in rep.panels.values()]
+    area = [p.area_diff_pct for p in rep.panels.values()]
+    return {"garment": garment, "body": body, "max_cm": rep.max_cm, "mean_cm": rep.mean_cm, "points": rep.n_points,
+            "worst": list(rep.worst) if rep.worst else None, "perimeter_diff_cm": [min(per), max(per)],
+            "area_diff_pct": [min(area), max(area)],
+            "panels": {n: {"max_cm": p.max_cm, "matching": p.matching} for n, p in rep.panels.items()}}
 
 
 def _f(x: float) -> str:
@@ -45,13 +61,11 @@ def summary_table(rows: list[dict]) -> list[str]:
            "| area diff % | order-matched panels |",
            "|---|---|---:|---:|---:|---|---|---|---|"]
     for r in rows:
-        rep = r["report"]
-        per = [p.perimeter_diff_cm for p in rep.panels.values()]
-        area = [p.area_diff_pct for p in rep.panels.values()]
-        order = [n for n, p in rep.panels.items() if p.matching == "order"]
-        worst = f"{rep.worst[0]}: {rep.worst[1]}" if rep.worst else "-"
-        out.append(f"| {r['garment']} | {r['body']} | {_f(rep.max_cm)} | {_f(rep.mean_cm)} | {rep.n_points} | "
-                   f"{worst} | {min(per):+.1f} .. {max(per):+.1f} | {min(area):+.1f} .. {max(area):+.1f} | "
+        (per0, per1), (area0, area1) = r["perimeter_diff_cm"], r["area_diff_pct"]
+        order = [n for n, p in r["panels"].items() if p["matching"] == "order"]
+        worst = f"{r['worst'][0]}: {r['worst'][1]}" if r["worst"] else "-"
+        out.append(f"| {r['garment']} | {r['body']} | {_f(r['max_cm'])} | {_f(r['mean_cm'])} | {r['points']} | "
+                   f"{worst} | {per0:+.1f} .. {per1:+.1f} | {area0:+.1f} .. {area1:+.1f} | "
                    f"{', '.join(order) if order else '-'} |")
     return out
 
@@ -61,34 +75,35 @@ def panel_tables(rows: list[dict]) -> list[str]:
     for garment in dict.fromkeys(r["garment"] for r in rows):
         grows = [r for r in rows if r["garment"] == garment]
         bodies = [r["body"] for r in grows]
-        panels = list(dict.fromkeys(n for r in grows for n in r["report"].panels))
+        panels = list(dict.fromkeys(n for r in grows for n in r["panels"]))
         out += [f"### {garment}", "", "| panel | " + " | ".join(bodies) + " |",
                 "|---|" + "---:|" * len(bodies)]
         for name in panels:
             cells = []
             for r in grows:
-                p = r["report"].panels.get(name)
-                cells.append("-" if p is None else _f(p.max_cm) + (" (o)" if p.matching == "order" else ""))
+                p = r["panels"].get(name)
+                cells.append("-" if p is None else _f(p["max_cm"]) + (" (o)" if p["matching"] == "order" else ""))
             out.append(f"| {name} | " + " | ".join(cells) + " |")
         out.append("")
     return out
 
 
-def markdown(rows: list[dict], data: Path, seconds: float) -> str:
-    maxes = [r["report"].max_cm for r in rows]
-    within = [r for r in rows if r["report"].max_cm < PAPER_MAX_CM]
+def markdown(results: dict) -> str:
+    rows, meta = results["pairs"], results["meta"]
+    maxes = [r["max_cm"] for r in rows]
+    within = [r for r in rows if r["max_cm"] < PAPER_MAX_CM]
     by_body: dict[str, list[float]] = {}
     for r in rows:
-        by_body.setdefault(r["body"], []).append(r["report"].max_cm)
+        by_body.setdefault(r["body"], []).append(r["max_cm"])
     lines = [
         "# Ground-truth baseline: the unchanged base pattern against each target size",
         "",
-        f"Generated by `tests/benchmarks/bench_ground_truth.py` from `{data}` ({len(rows)} garment x body "
-        f"pairs, {seconds:.1f} s). Measure: `seamfit.pattern.compare.baseline_errors` (see "
-        "[pattern_output.md](pattern_output.md#grading-accuracy-against-ground-truth)): per panel, the "
-        "landmarks of the **unchanged size06 pattern** and of the pattern drafted for the target body, "
-        "after the least-squares rigid alignment of the panel pair, distances in cm. This is what doing "
-        "nothing scores; a grading result must come out lower against the same truth.",
+        f"Generated by `tests/benchmarks/bench_ground_truth.py` from `{meta['data']}` ({len(rows)} garment x body "
+        f"pairs, {meta['seconds']:.1f} s). Measure: `seamfit.pattern.compare.baseline_errors` (see "
+        "[pattern_output.md](pattern_output.md#grading-accuracy-against-ground-truth-seamfitpatterncompare)): "
+        "per panel, the landmarks of the **unchanged size06 pattern** and of the pattern drafted for the "
+        "target body, after the least-squares rigid alignment of the panel pair, distances in cm. This is "
+        "what doing nothing scores; a grading result must come out lower against the same truth.",
         "",
         f"* Max landmark distance over all pairs: {_f(max(maxes))} cm; median of the per-pair maxima "
         f"{_f(sorted(maxes)[len(maxes) // 2])} cm.",
@@ -111,11 +126,7 @@ def markdown(rows: list[dict], data: Path, seconds: float) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DATA)
-    ap.add_argument("--out", type=Path, default=ROOT / "docs" / "ground_truth_baseline.md")
-    args = ap.parse_args(argv)
+def cmd_run(args) -> int:
     if not args.data.is_dir():
         print(f"{args.data}: no such directory", file=sys.stderr)
         return 2
@@ -127,12 +138,30 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(f"{'garment':<18} {'body':<11} {'max cm':>7} {'mean cm':>8} {'n':>4}  worst")
     for r in rows:
-        rep = r["report"]
-        print(f"{r['garment']:<18} {r['body']:<11} {rep.max_cm:7.2f} {rep.mean_cm:8.2f} {rep.n_points:>4}  "
-              f"{rep.worst[0]}: {rep.worst[1]}")
-    atomic_write_text(args.out, markdown(rows, args.data, seconds))
-    print(f"wrote {args.out}")
+        print(f"{r['garment']:<18} {r['body']:<11} {r['max_cm']:7.2f} {r['mean_cm']:8.2f} {r['points']:>4}  "
+              f"{r['worst'][0]}: {r['worst'][1]}")
+    results = {"meta": {"command": " ".join(sys.argv), "data": str(args.data), "seconds": seconds,
+                        "machine": f"{platform.machine()}, Python {platform.python_version()}"}, "pairs": rows}
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(args.out, json.dumps(results, indent=1) + "\n")
+    atomic_write_text(args.docs / "ground_truth_baseline.md", markdown(results))
+    print(f"wrote {args.out} and {args.docs / 'ground_truth_baseline.md'}")
     return 0
+
+
+def cmd_report(args) -> int:
+    atomic_write_text(args.docs / "ground_truth_baseline.md", markdown(json.loads(args.results.read_text())))
+    print(f"wrote {args.docs / 'ground_truth_baseline.md'}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    cli = Commands(__doc__.splitlines()[0])
+    r = cli.add_run(cmd_run)
+    r.add_argument("--data", type=Path, default=DATA)
+    r.add_argument("--docs", type=Path, default=ROOT / "docs", help="where the page goes")
+    cli.add_report(cmd_report, nargs=None)
+    return cli.main(argv)
 
 
 if __name__ == "__main__":

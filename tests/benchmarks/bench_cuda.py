@@ -8,12 +8,19 @@ against residual for a drape.
     PYTHONPATH=native/python python tests/benchmarks/bench_cuda.py run --dir MESHES --out OUT
     # the CPU part alone (e.g. on a development box):
     PYTHONPATH=native/python python tests/benchmarks/bench_cuda.py cpu --dir MESHES --out OUT
-    # plots and docs/gpu_results.md tables from results.json files:
-    python tests/benchmarks/bench_cuda.py report --results OUT/results.json [--cpu-dev DEV/results.json]
+    # docs/gpu_results.md and its plots from results.json files (several: the CPU runs add up,
+    # the table takes each size's fastest; --cpu-dev: a development box's CPU run):
+    python tests/benchmarks/bench_cuda.py report OUT/results.json [--cpu-dev DEV/results.json]
 
 The garment is GarmentCode's circle skirt (size 06) on the size 06 body,
 remeshed finer for each size; the body's SDF is built where the benchmark
 runs (2.5 mm, the drape command's default, over the skirt's height only).
+
+The page's text is tests/benchmarks/gpu_results_notes.md (--notes): the report puts each
+table where that file has a line <!-- iterations -->, <!-- kernels -->, <!-- ncu -->,
+<!-- precision --> or <!-- drapes -->. The Nsight Compute table is the results' "ncu" rows:
+per kernel, the medians of `ncu --clock-control none` over ncu-target (the fields of
+bench_adjoint_gpu.ncu_table, and "instructions").
 """
 from __future__ import annotations
 
@@ -21,6 +28,7 @@ import argparse
 import json
 import os
 import platform
+import re
 import sys
 import time
 from pathlib import Path
@@ -146,7 +154,8 @@ def gpu_timings(d: Path, sizes, sdf):
     for name in sizes:
         mesh = load_mesh(d, name)
         sim = make_sim(mesh, sdf, tolerance=1e-12)
-        row = {"size": name, "triangles": int(len(mesh.triangles)), "vertices": int(len(mesh.uv_cm))}
+        row = {"size": name, "edge_cm": float(mesh.edge_cm), "triangles": int(len(mesh.triangles)),
+               "vertices": int(len(mesh.uv_cm))}
         # A state mid-way through dressing: seams closing, barrier active.
         x_mid = CudaSimulator(sim).solve(mesh.x0, max_iterations=1500)[0]
         row["active_barrier_fraction"] = float(np.mean(sim.phi(x_mid, barrier_field=True) < sim.settings.barrier_distance))
@@ -158,6 +167,8 @@ def gpu_timings(d: Path, sizes, sdf):
             if label == "graph":
                 kt = g.time_kernels(x_mid, 200)
                 row.update({f"kernel_{k}": v for k, v in kt.items()})
+                for k in ("eval", "step"):  # the unique-byte estimate over the time, GB/s
+                    row[f"kernel_{k}_gb_s"] = kt[f"{k}_bytes"] / kt[f"{k}_us"] / 1e3
                 row["device"] = g.device_name
                 row["device_bytes"] = g.device_bytes
         row["lanes_auto"] = CudaSimulator(sim).lanes
@@ -180,7 +191,8 @@ def gpu_timings(d: Path, sizes, sdf):
         row["stretch_Y"] = sim.core.params.stretch_Y
         row["f_max"] = float(scale)
         row["f64_abs_err"] = float(np.abs(f64 - f_cpu).max())
-        row["f64_rel_err"] = float(np.abs(f64 - f_cpu).max() / scale)
+        # as the page gives it: over the larger of the largest force and the stretch modulus
+        row["f64_rel_err"] = float(np.abs(f64 - f_cpu).max() / max(scale, sim.core.params.stretch_Y))
         row["f32_rel_err"] = float(np.abs(f32 - f_cpu).max() / scale)
         row["f32_residual_shift"] = float(np.linalg.norm(f32 - f_cpu) / wn)  # in units of the relative residual
         for lanes in (1, 8):
@@ -211,9 +223,12 @@ def drape_compare(d: Path, name: str, with_cpu: bool, sdf, threads: int, cpu_sec
         r = sim.drape()
         wall = time.perf_counter() - t0
         results[label] = r
+        verdict = "converged" if r.converged else next(
+            (b for b in ("time budget", "iteration budget") if b in r.message), r.message)
         out[label] = {"seconds": r.seconds, "wall": wall, "iterations": r.iterations, "residual": r.residual,
-                      "converged": r.converged, "message": r.message, "max_sewing_gap_mm": r.max_sewing_gap_mm,
-                      "min_phi_mm": r.min_phi_mm, "cpu_residual_at_x": float(make_sim(mesh, sdf).residual(r.x)),
+                      "converged": r.converged, "verdict": verdict, "message": r.message,
+                      "max_sewing_gap_mm": r.max_sewing_gap_mm, "min_phi_mm": r.min_phi_mm,
+                      "cpu_residual_at_x": float(make_sim(mesh, sdf).residual(r.x)),
                       "history": r.history, "stages": [{k: v for k, v in s.items() if not k.startswith("history")}
                                                        for s in r.stages]}
         log(f"drape {name} {label}: {r.message}; {r.iterations} iterations in {r.seconds:.2f} s")
@@ -229,7 +244,8 @@ def run(args) -> None:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     sizes = args.sizes.split(",")
-    res = {"host": platform.node(), "cpu_count": os.cpu_count(), "python": platform.python_version()}
+    res = {"meta": {"command": " ".join(sys.argv), "host": platform.node(), "cpu_count": os.cpu_count(),
+                    "python": platform.python_version()}}
     path = out / "results.json"
 
     def save():
@@ -266,24 +282,51 @@ def ncu_target(args) -> None:
 
 
 # ------------------------------------------------------------------- report
-def report(args) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    # Later files add to earlier ones (drapes merge by mesh).
-    res = {}
-    for path in args.results:
-        r = json.loads(Path(path).read_text())
-        for k, v in r.items():
-            if k == "drape" and "drape" in res:
+NOTES = Path(__file__).resolve().parent / "gpu_results_notes.md"
+
+
+def merge(paths) -> dict:
+    """Results files, a later one adding to earlier ones: CPU rows add up (several runs of
+    one machine), drapes merge by mesh, other keys are replaced."""
+    res: dict = {}
+    for path in paths:
+        for k, v in json.loads(Path(path).read_text()).items():
+            if k == "cpu":
+                res["cpu"] = res.get("cpu", []) + v
+            elif k == "drape" and "drape" in res:
                 by = {d["size"]: d for d in res["drape"]}
                 for d in v:
                     by.setdefault(d["size"], {}).update(d)
                 res["drape"] = list(by.values())
             else:
                 res[k] = v
-    dev = json.loads(Path(args.cpu_dev).read_text()) if args.cpu_dev else None
-    img = Path(args.img)
+    return res
+
+
+def fastest(rows: list[dict]) -> dict:
+    """Per size, the CPU row with the least time per iteration."""
+    best: dict = {}
+    for r in rows:
+        if r["size"] not in best or r["cpu_us_per_iteration"] < best[r["size"]]["cpu_us_per_iteration"]:
+            best[r["size"]] = r
+    return best
+
+
+def _sci(x: float) -> str:
+    m, e = f"{x:.1e}".split("e")
+    return f"{m}e{int(e)}"  # 1.0e-4, not 1.0e-04
+
+
+def _threads(n: int) -> str:
+    return f"{n} thread{'s' if n != 1 else ''}"
+
+
+def plot(res: dict, cpu: dict, dev: dict, img: Path) -> None:
+    """The time per iteration against triangles; the residual against time of each drape
+    whose history the results keep."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
     img.mkdir(parents=True, exist_ok=True)
     gpu = res["gpu"]
     tri = [r["triangles"] for r in gpu]
@@ -291,12 +334,11 @@ def report(args) -> None:
     fig, ax = plt.subplots(figsize=(6.4, 5.2))
     ax.loglog(tri, [r["gpu_us_per_iteration_graph"] for r in gpu], "o-", label=f"{gname}, CUDA graphs (float64)")
     ax.loglog(tri, [r["gpu_us_per_iteration_nograph"] for r in gpu], "s--", label=f"{gname}, plain launches")
-    if "cpu" in res:
-        ax.loglog([r["triangles"] for r in res["cpu"]], [r["cpu_us_per_iteration"] for r in res["cpu"]], "^-",
-                  label=f"CPU, {res['cpu'][0]['cpu_threads']} threads ({gname} host)")
-    if dev and "cpu" in dev:
-        ax.loglog([r["triangles"] for r in dev["cpu"]], [r["cpu_us_per_iteration"] for r in dev["cpu"]], "v:",
-                  label=f"CPU, {dev['cpu'][0]['cpu_threads']} thread(s) (shared 2-core dev box)")
+    for rows, style, where in ((cpu, "^-", f"{gname} host"), (dev, "v:", "shared 2-core dev box")):
+        if rows:
+            rows = sorted(rows.values(), key=lambda r: r["triangles"])
+            ax.loglog([r["triangles"] for r in rows], [r["cpu_us_per_iteration"] for r in rows], style,
+                      label=f"CPU, {_threads(rows[0]['cpu_threads'])} ({where})")
     ax.axhline(50, color="gray", lw=0.8, ls=":")
     ax.text(tri[0], 55, "aim: 50 us at 66K triangles", fontsize=8, color="gray")
     ax.axhline(78000, color="gray", lw=0.8, ls=":")
@@ -307,70 +349,116 @@ def report(args) -> None:
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)
     fig.tight_layout()
     fig.savefig(img / "gpu_iteration_time.png", dpi=120)
-    if "drape" in res:
-        fig, axes = plt.subplots(1, len(res["drape"]), figsize=(11, 4.2))
-        for ax, dr in zip(np.atleast_1d(axes), res["drape"]):
-            for label, style in (("gpu_f64", "-"), ("gpu_f32", "--"), ("cpu", "-")):
-                if label not in dr:
-                    continue
-                h = dr[label]
-                name = {"gpu_f64": "GPU float64", "gpu_f32": "GPU float32 rest state",
-                        "cpu": f"CPU {res['cpu'][0]['cpu_threads'] if 'cpu' in res else ''} threads"}[label]
-                ax.semilogy(np.maximum(h["history"]["seconds"], 1e-3), h["history"]["residual"], style,
-                            label=f"{name}: {h['iterations']} it, {h['seconds']:.1f} s")
-            ax.set_xscale("log")
-            ax.axhline(1e-3, color="gray", lw=0.8, ls=":")
-            ax.set_xlabel("seconds (sew stage, then settle)")
-            ax.set_ylabel("relative residual |f| / |m g|")
-            garment = "pencil skirt" if dr["size"].startswith("pencil") else "circle skirt"
-            ax.set_title(f"{garment}, {dr['triangles']} triangles", fontsize=10)
-            ax.grid(True, which="both", alpha=0.3)
-            ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(img / "gpu_drape_residual.png", dpi=120)
-    print("wrote plots to", img)
-    # Tables for docs/gpu_results.md.
-    cpu = {r["size"]: r for r in res.get("cpu", [])}
-    cdev = {r["size"]: r for r in (dev or {}).get("cpu", [])}
-    print("| triangles | vertices | GPU us/it | plain launches | lanes 1 / 2 / 4 / 8 | chosen | "
-          "CPU us/it (16 threads) | dev box | GPU speed-up |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    plt.close(fig)
+    # results transcribed from a page keep no histories
+    drapes = [d for d in res.get("drape", []) if "history" in d["gpu_f64"]]
+    if not drapes:
+        return
+    fig, axes = plt.subplots(1, len(drapes), figsize=(11, 4.2))
+    for ax, dr in zip(np.atleast_1d(axes), drapes):
+        for label, style in (("gpu_f64", "-"), ("gpu_f32", "--"), ("cpu", "-")):
+            if label not in dr:
+                continue
+            h = dr[label]
+            name = {"gpu_f64": "GPU float64", "gpu_f32": "GPU float32 rest state",
+                    "cpu": f"CPU {_threads(next(iter(cpu.values()))['cpu_threads']) if cpu else ''}"}[label]
+            ax.semilogy(np.maximum(h["history"]["seconds"], 1e-3), h["history"]["residual"], style,
+                        label=f"{name}: {h['iterations']} it, {h['seconds']:.1f} s")
+        ax.set_xscale("log")
+        ax.axhline(1e-3, color="gray", lw=0.8, ls=":")
+        ax.set_xlabel("seconds (sew stage, then settle)")
+        ax.set_ylabel("relative residual |f| / |m g|")
+        garment = "pencil skirt" if dr["size"].startswith("pencil") else "circle skirt"
+        ax.set_title(f"{garment}, {dr['triangles']} triangles", fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(img / "gpu_drape_residual.png", dpi=120)
+    plt.close(fig)
+
+
+def tables(res: dict, cpu: dict, dev: dict) -> dict[str, str]:
+    """The page's tables, by the name of the line of the notes each replaces."""
+    gpu, nan = res["gpu"], {"cpu_us_per_iteration": float("nan")}
+    t, dt = (_threads(next(iter(rows.values()))["cpu_threads"]) if rows else "-" for rows in (cpu, dev))
+    fused = all("gpu_us_per_iteration_fused" in r for r in gpu)  # a kernel option since removed
+    head = ["triangles", "vertices", "GPU us/it", "plain launches"] + ["control fused"] * fused + [
+        "lanes 1 / 2 / 4 / 8", "chosen", f"CPU us/it ({t})", f"dev box ({dt})", f"GPU speed-up over {t}"]
+    rows = []
     for r in gpu:
-        c = cpu.get(r["size"], {}).get("cpu_us_per_iteration", float("nan"))
-        dv = cdev.get(r["size"], {}).get("cpu_us_per_iteration", float("nan"))
-        lanes = " / ".join(f"{r.get(f'gpu_us_per_iteration_lanes{L}', float('nan')):.1f}" for L in (1, 2, 4, 8))
-        print(f"| {r['triangles']:,} | {r['vertices']:,} | {r['gpu_us_per_iteration_graph']:.1f} | "
-              f"{r['gpu_us_per_iteration_nograph']:.1f} | {lanes} | {r.get('lanes_auto', '')} | {c:.0f} | {dv:.0f} | "
-              f"{c / r['gpu_us_per_iteration_graph']:.0f}x |")
+        c = cpu.get(r["size"], nan)["cpu_us_per_iteration"]
+        d = dev.get(r["size"], nan)["cpu_us_per_iteration"]
+        lanes = " / ".join(f"{r[f'gpu_us_per_iteration_lanes{n}']:.1f}" for n in (1, 2, 4, 8))
+        rows.append([f"{r['triangles']:,}", f"{r['vertices']:,}", f"{r['gpu_us_per_iteration_graph']:.1f}",
+                     f"{r['gpu_us_per_iteration_nograph']:.1f}"]
+                    + [f"{r['gpu_us_per_iteration_fused']:.1f}"] * fused
+                    + [lanes, str(r["lanes_auto"]), f"{c:,.0f}", f"{d:,.0f}",
+                       f"{c / r['gpu_us_per_iteration_graph']:.0f}x"])
+    out = {"iterations": _table(head, rows)}
     bw = res.get("peak_copy_bytes_per_s") or float("nan")
-    print(f"\ncopy bandwidth {bw / 1e12:.2f} TB/s")
-    print("| triangles | eval us | step us | slot us | eval MB | step MB | eval GB/s | % of copy | step GB/s |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    for r in gpu:
-        eb, sb = r["kernel_eval_bytes"], r["kernel_step_bytes"]
-        print(f"| {r['triangles']:,} | {r['kernel_eval_us']:.1f} | {r['kernel_step_us']:.1f} | {r['kernel_slot_us']:.1f} | "
-              f"{eb / 1e6:.1f} | {sb / 1e6:.1f} | {eb / r['kernel_eval_us'] / 1e3:.0f} | "
-              f"{100 * eb / r['kernel_eval_us'] * 1e6 / bw:.0f}% | {sb / r['kernel_step_us'] / 1e3:.0f} |")
-    print("| triangles | float64 force err (N) | rel. to max(|f|, Y) | float32-rest err (rel.) | "
-          "float32 shift of the residual | float32 us/it |")
-    print("|---|---|---|---|---|---|")
-    for r in gpu:
-        print(f"| {r['triangles']:,} | {r['f64_abs_err']:.2g} | {r['f64_abs_err'] / max(r['f_max'], r['stretch_Y']):.2g} | "
-              f"{r['f32_rel_err']:.2g} | {r['f32_residual_shift']:.2g} | {r['gpu_us_per_iteration_f32']:.1f} |")
+    out["kernels"] = _table(
+        ["triangles", "eval + control us", "step us", "slot us", "eval MB", "step MB", "eval GB/s", "% of copy rate",
+         "step GB/s"],
+        [[f"{r['triangles']:,}", f"{r['kernel_eval_us']:.1f}", f"{r['kernel_step_us']:.1f}",
+          f"{r['kernel_slot_us']:.1f}", f"{r['kernel_eval_bytes'] / 1e6:.1f}", f"{r['kernel_step_bytes'] / 1e6:.1f}",
+          f"{r['kernel_eval_gb_s']:.0f}", f"{100 * r['kernel_eval_gb_s'] * 1e9 / bw:.0f} %",
+          f"{r['kernel_step_gb_s']:.0f}"] for r in gpu])
+
+    def mb(x):  # the small ones keep a digit that counts
+        return f"{x:.1f}" if x >= 1 else f"{x:.2f}"
+    out["ncu"] = _table(
+        ["kernel", "grid", "time us", "DRAM read MB", "DRAM % of peak", "L2 bytes MB", "L2 % of peak", "warps active",
+         "instructions"],
+        [[k["kernel"], f"{k['grid']} x {k['block']}", f"{k['time_us']:.1f}", mb(k["dram_read_mb"]),
+          f"{k['dram_pct']:.0f} %", mb(k["l2_mb"]), f"{k['l2_pct']:.0f} %", f"{k['warps_pct']:.0f} %",
+          f"{k['instructions'] / 1e6:.3g} M" if k["instructions"] >= 1e6 else f"{k['instructions'] / 1e3:.3g} K"]
+         for k in res.get("ncu", [])])
+    out["precision"] = _table(
+        ["triangles", "float64: max force difference (N)", "relative to max(|f|, Y)",
+         "float32 rest: relative difference", "float32: shift of the residual", "float32 us/it"],
+        [[f"{r['triangles']:,}", _sci(r["f64_abs_err"]), _sci(r["f64_rel_err"]), _sci(r["f32_rel_err"]),
+          f"{r['f32_residual_shift']:.2g}", f"{r['gpu_us_per_iteration_f32']:.1f}"] for r in gpu])
+    rows = []
+    names = {"gpu_f64": "GPU float64", "gpu_f32": "GPU float32 rest", "cpu": f"CPU, {t}"}
     for dr in res.get("drape", []):
-        print(f"\ndrape {dr['size']} ({dr['triangles']:,} triangles)")
-        for label in ("gpu_f64", "gpu_f32", "cpu"):
-            if label in dr:
-                h = dr[label]
-                print(f"- {label}: {h['message']}; {h['iterations']} iterations, {h['seconds']:.2f} s; "
-                      f"CPU residual at x {h['cpu_residual_at_x']:.3g}; seam gap {h['max_sewing_gap_mm']:.2f} mm; "
-                      f"min phi {h['min_phi_mm']:.2f} mm")
-        for k in ("f32_vs_f64_max_mm", "gpu_vs_cpu_max_mm"):
-            if k in dr:
-                print(f"- {k}: {dr[k]:.3g}")
+        garment = f"{'pencil' if dr['size'].startswith('pencil') else 'circle'} skirt, {dr['triangles']:,} triangles"
+        for label in (k for k in names if k in dr):
+            h = dr[label]
+            verdict = h["verdict"] + (" (own model)" if label == "gpu_f32" and h["converged"] else "")
+            if label == "gpu_f32":  # float32 against float64 means something once both settled
+                vs = f"{dr['f32_vs_f64_max_mm']:.2g} mm" if h["converged"] and dr["gpu_f64"]["converged"] \
+                    else "(unconverged)"
+            else:
+                vs = f"{dr['gpu_vs_cpu_max_mm']:.2g} mm" if label == "cpu" and "gpu_vs_cpu_max_mm" in dr else ""
+            res_x = h["cpu_residual_at_x"]  # 1.0e-3 beside the tolerance, 0.059 above it
+            rows.append([garment if label == "gpu_f64" else "", names[label], verdict, f"{h['iterations']:,}",
+                         f"{h['seconds']:.3g}", _sci(res_x) if res_x < 0.01 else f"{res_x:.2g}",
+                         f"{h['max_sewing_gap_mm']:.2f} mm", vs])
+    out["drapes"] = _table(["garment", "run", "verdict", "iterations", "seconds", "residual at the result, on the CPU",
+                            "seam gap", "vs float64 GPU"], rows)
+    return out
 
 
-def main() -> None:
+def _table(head: list[str], rows: list[list[str]]) -> str:
+    def line(cells):
+        return "|" + "|".join(f" {c} " if c else " " for c in cells) + "|"
+    return "\n".join([line(head), "|" + "---|" * len(head)] + [line(r) for r in rows])
+
+
+def report(args) -> int:
+    res = merge(args.results)
+    cpu = fastest(res.get("cpu", []))
+    dev = fastest(json.loads(Path(args.cpu_dev).read_text())["cpu"]) if args.cpu_dev else {}
+    plot(res, cpu, dev, args.docs / "img")
+    blocks = tables(res, cpu, dev)
+    # each line <!-- name --> of the notes is the table of that name
+    page = re.sub(r"^<!-- (\w+) -->$", lambda m: blocks[m.group(1)], args.notes.read_text(), flags=re.M)
+    (args.docs / "gpu_results.md").write_text(page)
+    print(f"wrote {args.docs / 'gpu_results.md'} and its plots under {args.docs / 'img'}")
+    return 0
+
+
+def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
     p = sub.add_parser("prepare")
@@ -388,12 +476,14 @@ def main() -> None:
     p.add_argument("--dir", required=True)
     p.add_argument("--size", default="60k")
     p = sub.add_parser("report")
-    p.add_argument("--results", required=True, nargs="+")
-    p.add_argument("--cpu-dev")
-    p.add_argument("--img", default=str(ROOT / "docs" / "img"))
-    args = ap.parse_args()
-    {"prepare": prepare, "run": run, "cpu": run, "ncu-target": ncu_target, "report": report}[args.cmd](args)
+    p.add_argument("results", type=Path, nargs="+")
+    p.add_argument("--cpu-dev", type=Path, help="a development box's results (its CPU rows)")
+    p.add_argument("--notes", type=Path, default=NOTES,
+                   help="the page's text with a line per table (default tests/benchmarks/gpu_results_notes.md)")
+    p.add_argument("--docs", type=Path, default=ROOT / "docs", help="where the page and its pictures go")
+    args = ap.parse_args(argv)
+    return {"prepare": prepare, "run": run, "cpu": run, "ncu-target": ncu_target, "report": report}[args.cmd](args)
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

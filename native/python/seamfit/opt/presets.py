@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..pattern.model import by_garment_type
 from .costs import Strengths
 
 # delta_seam of every preset (see above).
@@ -87,11 +88,7 @@ AUTO = "auto"
 
 def preset_for_garment(garment_type: str | None) -> str:
     """The preset a garment kind gets with ``preset="auto"`` (the pattern's garment_type)."""
-    kind = (garment_type or "").lower()
-    for key, name in _KIND_RULES:
-        if key in kind:
-            return name
-    return "dress"
+    return by_garment_type(garment_type, _KIND_RULES, "dress")
 
 
 def preset(name: str, garment_type: str | None = None) -> Preset:

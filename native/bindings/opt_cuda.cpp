@@ -28,11 +28,8 @@ using cuda::SeamLengthGpu;
 
 auto make_regularizers_gpu(const opt::Regularizers& objective, opt::Regularizers& precond,
                            size_t max_bytes) {
-  try {
-    return std::make_unique<RegularizersGpu>(objective, precond, max_bytes);
-  } catch (const std::invalid_argument& e) {
-    throw py::value_error(e.what());
-  }
+  // std::invalid_argument reaches Python as ValueError through pybind11's own translation.
+  return std::make_unique<RegularizersGpu>(objective, precond, max_bytes);
 }
 
 auto regularizers_gpu_evaluate(RegularizersGpu& g, const DArr& theta) {
@@ -46,11 +43,7 @@ auto regularizers_gpu_evaluate(RegularizersGpu& g, const DArr& theta) {
 auto regularizers_gpu_precondition(RegularizersGpu& g, const DArr& grad) {
   check_shape(grad, g.n_theta(), 2, "g");
   DArr out = new_array(g.n_theta(), 2);
-  try {
-    g.apply_preconditioner(as<Vec2>(grad), as_mut<Vec2>(out));
-  } catch (const std::invalid_argument& e) {
-    throw py::value_error(e.what());
-  }
+  g.apply_preconditioner(as<Vec2>(grad), as_mut<Vec2>(out));
   return out;
 }
 
@@ -65,11 +58,7 @@ auto regularizers_gpu_evaluate_device(RegularizersGpu& g, const DeviceArray& the
 void regularizers_gpu_precondition_device(RegularizersGpu& g, const DeviceArray& grad, DeviceArray& out) {
   require_shape(grad, g.n_theta(), 2, "g");
   require_shape(out, g.n_theta(), 2, "out");
-  try {
-    g.apply_preconditioner_device(grad.data(), out.data());
-  } catch (const std::invalid_argument& e) {
-    throw py::value_error(e.what());
-  }
+  g.apply_preconditioner_device(grad.data(), out.data());
 }
 
 // Binds CudaRegularizers, the GPU copy of Regularizers.

@@ -547,3 +547,50 @@ def test_openings_are_the_waist_and_hem_not_the_side_seams(skirt):
     assert len(e) > 0 and near_edge.all()
     pairs = set(map(tuple, np.sort(np.asarray(mesh.sewing_pairs), axis=1)))
     assert not any(tuple(sorted(x)) in pairs for x in e)
+
+
+def _band(x0: float, x1: float, y: float, z: float, n: int = 4):
+    """n triangles (n, 3, 3) of 1 cm strips across x0..x1 at depth y, around height z."""
+    xs = np.linspace(x0, x1, n + 1)
+    return np.array([[[a, y, z - 0.004], [b, y, z - 0.004], [a, y, z + 0.004]] for a, b in zip(xs[:-1], xs[1:])])
+
+
+def test_a_darted_front_grows_between_its_bust_points_as_the_span_did():
+    # Both drafting systems place a bodice's dart apexes from the bust span and give the
+    # rest of the front's growth to the side: at the bust, the cloth between the bust points
+    # stretches by the span's ratio, the rest of the front takes what is left of the front's
+    # growth, and the back is untouched. Above the armpit and below the hip nothing changes.
+    from seamfit.opt.level_scale import _bust_span_split
+    span = {"points": np.array([[0.09, -0.10, 1.22], [-0.09, -0.10, 1.22]]), "ratio": 1.02,
+            "y_mid": 0.0, "hip": 0.80, "waist": 1.00, "armpit": 1.25}
+    z = 1.10                                        # between the waist and the bust point
+    inner, outer = _band(-0.08, 0.08, -0.12, z), _band(0.10, 0.20, -0.06, z)
+    back = _band(-0.2, 0.2, 0.08, z)
+    high, low = _band(-0.08, 0.08, -0.12, 1.30), _band(-0.08, 0.08, -0.12, 0.70)
+    X = np.concatenate([inner, outer, back, high, low])
+    sx = np.full(len(X), 1.10)
+    out = _bust_span_split(sx, X, span)
+    k = np.cumsum([0, len(inner), len(outer), len(back), len(high), len(low)])
+    width = 0.5 * np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), axis=1) / np.ptp(X[:, :, 2], axis=1)
+    assert np.allclose(out[k[0]:k[1]], 1.02)
+    front = slice(k[0], k[2])           # the front's girth grows as much as before
+    assert np.sum(width[front] * (out[front] - 1)) == pytest.approx(np.sum(width[front] * (sx[front] - 1)))
+    assert np.all(out[k[1]:k[2]] > 1.10)
+    assert np.array_equal(out[k[2]:], sx[k[2]:])   # the back, above the armpit, below the hip
+
+
+def test_the_bust_span_is_read_from_the_landmarks_of_both_bodies():
+    from seamfit.body import load_body
+    from seamfit.body.shape_model import hm08_landmarks
+    from seamfit.opt.level_scale import BUST_POINT, base_levels, bust_span
+    body = load_body(SAMPLES / "bodies/women_size06.obj")
+    lv = base_levels(body)
+    idx = [int(np.atleast_1d(hm08_landmarks()[n])[0]) for n in BUST_POINT]
+    v = np.array(body.vertices, dtype=float)
+    d0 = np.linalg.norm(v[idx[0]] - v[idx[1]])
+    v[idx[0], 0] += 0.01 * np.sign(v[idx[0], 0])    # one bust point 1 cm further out
+    span = bust_span(body, replace(body, vertices=v), lv)
+    assert span["ratio"] == pytest.approx(np.linalg.norm(v[idx[0]] - v[idx[1]]) / d0)
+    assert span["ratio"] > 1.0
+    other = replace(body, faces=np.asarray(body.faces)[::-1].copy())
+    assert bust_span(other, other, lv) is None

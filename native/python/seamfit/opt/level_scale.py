@@ -26,7 +26,9 @@ than its tape is part of a section, no girth: it stretches as the nearest level 
 one. Sleeves are measured around the arm instead (seamfit.opt.sleeves). A waist dart takes
 up what the girth at its tip grew beyond the girth at its open end: its wedge joins the fit
 with the across-stretch that lets the panel's row at the open end grow as the tip's row did
-(_dart_wedges). The pattern whose
+(_dart_wedges). A bodice shaped by darts grows, across its front, between the bust points
+as the bust span did (both drafting systems place the dart apexes from it) and beside them by
+the rest of the front's growth (_bust_span_split). The pattern whose
 triangle gradients best match those stretches (a
 sparse least-squares solve per panel, the same kind of solve as a Poisson problem) is the
 level-scaled pattern. Equal bodies give the base pattern back exactly.
@@ -400,10 +402,11 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
     return {"z": zs, "G": G, "dH": dH, "sx": sx, "hip_supported": hip_supported}
 
 
-def _stretch_targets(mesh, xbar, profile, zmap, sleeves=None):
+def _stretch_targets(mesh, xbar, profile, zmap, sleeves=None, bust=None):
     """Per triangle the 2x2 target gradient S_t of the new pattern against the base one;
     ``sleeves`` (mask, sx, up) gives sleeve triangles the arm's girth stretch and its
-    direction in place of the vertical."""
+    direction in place of the vertical; ``bust`` (bust_span) splits a darted bodice's front
+    growth at its bust points."""
     tri = np.asarray(mesh.triangles)
     p = 0.01 * np.asarray(mesh.uv_cm, dtype=float)
     zb, zt = zmap
@@ -422,6 +425,10 @@ def _stretch_targets(mesh, xbar, profile, zmap, sleeves=None):
     n = np.cross(E3[:, :, 0], E3[:, :, 1])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
     up = np.tile([0.0, 0.0, 1.0], (len(tri), 1))
+    if bust is not None:
+        torso = ~np.asarray(sleeves[0]) if sleeves is not None and np.any(sleeves[0]) else np.ones(len(tri), bool)
+        sx = np.array(sx, dtype=float)
+        sx[torso] = _bust_span_split(sx[torso], X[torso], bust)
     if sleeves is not None and np.any(sleeves[0]):
         mask, sx_arm, up_arm = sleeves
         sx = np.where(mask, sx_arm, sx)
@@ -440,6 +447,56 @@ def _stretch_targets(mesh, xbar, profile, zmap, sleeves=None):
     S = eye + (sx - 1)[:, None, None] * np.einsum("ti,tj->tij", d, d) \
         + (sy - 1)[:, None, None] * np.einsum("ti,tj->tij", e, e)
     return S, E2
+
+
+def bust_span(base_body, target_body, levels: dict) -> dict | None:
+    """What a darted bodice's front is drafted from besides its girths: the bust points (the
+    base's, (2, 3)), how much farther apart they are on the target (the span's ratio), the
+    torso's middle depth at the bust, and the levels the rule fades between (hip, waist,
+    armpit). None for a body of another mesh than MakeHuman's (no bust point landmarks)."""
+    lm = landmarks_of(base_body, target_body)
+    if lm is None:
+        return None
+    idx = np.array([int(np.atleast_1d(lm[n])[0]) for n in BUST_POINT])
+    v0 = np.asarray(base_body.vertices, dtype=float)
+    b0, b1 = v0[idx], np.asarray(target_body.vertices, dtype=float)[idx]
+    at_bust = np.abs(v0[:, 2] - b0[:, 2].mean()) < LEVEL_STEP_M
+    return {"points": b0, "ratio": float(np.linalg.norm(b1[0] - b1[1]) / np.linalg.norm(b0[0] - b0[1])),
+            "y_mid": float(v0[at_bust, 1].mean()),
+            "hip": float(levels["hip"]), "waist": float(levels["waist"]), "armpit": float(levels["armpit"])}
+
+
+def _bust_span_split(sx, X, span: dict) -> np.ndarray:
+    """Per triangle the across-stretch with a front's growth split at the bust points: the
+    cloth between them (in front of the torso's middle) stretches as the span between the
+    bust points did, and the rest of the front at that level takes what that leaves of the
+    level's growth of the front, so the front and the back grow as before. Full from the
+    waist to the bust point, fading to nothing at the armpit and at the hip.
+    X (T, 3, 3) the triangles on the base drape."""
+    b0 = span["points"]
+    z_bp = float(b0[:, 2].mean())
+    c = X.mean(axis=1)
+    # What a triangle adds to its level's girth: its width there, area over height.
+    area = 0.5 * np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), axis=1)
+    width = area / np.maximum(np.ptp(X[:, :, 2], axis=1), 1e-3)
+    z = c[:, 2]
+    up = (span["armpit"] - z) / max(span["armpit"] - z_bp, LEVEL_STEP_M)
+    down = (z - span["hip"]) / max(span["waist"] - span["hip"], LEVEL_STEP_M)
+    w = np.clip(np.minimum(up, down), 0.0, 1.0)
+    front = c[:, 1] < span["y_mid"]
+    between = front & (np.abs(c[:, 0] - b0[:, 0].mean()) < 0.5 * abs(b0[0, 0] - b0[1, 0])) & (w > 0)
+    out = np.array(sx, dtype=float)
+    level = np.floor(z / LEVEL_STEP_M).astype(np.int64)
+    for k in np.unique(level[between]):
+        at = level == k
+        inner, outer = at & between, at & front & ~between
+        if not outer.any():
+            continue
+        d = w[inner] * (span["ratio"] - out[inner])
+        moved = float(np.sum(width[inner] * d))
+        out[inner] += d
+        out[outer] -= moved / float(np.sum(width[outer]))
+    return out
 
 
 def _solve_gradients(mesh, S, E2, tri=None) -> np.ndarray:
@@ -570,9 +627,12 @@ def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return
     if flare:
         # A skirt the hip does not hold (a circle skirt) hangs from the natural waist.
         zmap = with_natural_waist(zmap, base_body, target_body)
-    if darted_above_the_waist(mesh, xbar, levels):
+    darted = darted_above_the_waist(mesh, xbar, levels)
+    if darted:
         zmap = with_bust_point(zmap, base_body, target_body)
-    S, E2 = _stretch_targets(mesh, xbar, prof, zmap, sleeves)
+    # A darted bodice's front grows between its bust points as the bust span did.
+    S, E2 = _stretch_targets(mesh, xbar, prof, zmap, sleeves,
+                             bust_span(base_body, target_body, levels) if darted else None)
     # Each dart's wedge joins the fit as triangles of its own, so its intake follows the
     # girths at its tip and its open end (_dart_wedges).
     wt, wS = _dart_wedges(mesh, xbar, prof, S)

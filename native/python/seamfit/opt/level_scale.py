@@ -131,6 +131,11 @@ def with_seat_line(zmap, base_body, target_body):
     return _with_knot(zmap, kb, kt)
 
 
+def _landmark_vertices(lm: dict, names) -> np.ndarray:
+    """The vertex ids of the named MakeHuman landmarks (a ring counts all its vertices)."""
+    return np.concatenate([np.atleast_1d(np.asarray(lm[n])) for n in names])
+
+
 def _landmark_knot(zmap, base_body, target_body, names):
     """The height map with a knot at the mean height of the named MakeHuman landmarks (a
     ring counts all its vertices), placed where the same vertices are on the target. Bodies
@@ -138,7 +143,7 @@ def _landmark_knot(zmap, base_body, target_body, names):
     lm = landmarks_of(base_body, target_body)
     if lm is None:
         return zmap
-    idx = np.concatenate([np.atleast_1d(np.asarray(lm[n])) for n in names])
+    idx = _landmark_vertices(lm, names)
     kb = float(np.asarray(base_body.vertices)[idx, 2].mean())
     kt = float(np.asarray(target_body.vertices)[idx, 2].mean())
     return _with_knot(zmap, kb, kt)
@@ -425,14 +430,13 @@ def _stretch_targets(mesh, xbar, profile, zmap, sleeves=None, bust=None):
     n = np.cross(E3[:, :, 0], E3[:, :, 1])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
     up = np.tile([0.0, 0.0, 1.0], (len(tri), 1))
+    on_arm = np.asarray(sleeves[0], dtype=bool) if sleeves is not None else np.zeros(len(tri), dtype=bool)
     if bust is not None:
-        torso = ~np.asarray(sleeves[0]) if sleeves is not None and np.any(sleeves[0]) else np.ones(len(tri), bool)
-        sx = np.array(sx, dtype=float)
-        sx[torso] = _bust_span_split(sx[torso], X[torso], bust)
-    if sleeves is not None and np.any(sleeves[0]):
-        mask, sx_arm, up_arm = sleeves
-        sx = np.where(mask, sx_arm, sx)
-        up[mask] = up_arm[mask]
+        sx[~on_arm] = _bust_span_split(sx[~on_arm], X[~on_arm], bust)
+    if on_arm.any():
+        _, sx_arm, up_arm = sleeves
+        sx = np.where(on_arm, sx_arm, sx)
+        up[on_arm] = up_arm[on_arm]
     v3 = up - np.sum(n * up, axis=1, keepdims=True) * n
     FtF = np.einsum("tki,tkj->tij", F, F)
     v2 = np.linalg.solve(FtF, np.einsum("tki,tk->ti", F, v3)[:, :, None])[:, :, 0]
@@ -457,7 +461,7 @@ def bust_span(base_body, target_body, levels: dict) -> dict | None:
     lm = landmarks_of(base_body, target_body)
     if lm is None:
         return None
-    idx = np.array([int(np.atleast_1d(lm[n])[0]) for n in BUST_POINT])
+    idx = _landmark_vertices(lm, BUST_POINT)
     v0 = np.asarray(base_body.vertices, dtype=float)
     b0, b1 = v0[idx], np.asarray(target_body.vertices, dtype=float)[idx]
     at_bust = np.abs(v0[:, 2] - b0[:, 2].mean()) < LEVEL_STEP_M

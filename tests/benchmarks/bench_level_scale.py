@@ -4,6 +4,11 @@ system's own pattern for the target body. No optimization: this scores the start
 
     python tests/benchmarks/bench_level_scale.py --data ../shared/data [--garments a,b] [--bodies x,y]
         [--edge-length 3] [--out docs/results/data/level_scale_results.json]
+        [--perturb-xbar 1e-6]
+
+--perturb-xbar SIGMA also computes each start from the base drape x-bar moved by Gaussian noise of
+SIGMA metres (two draws) and prints how far the start moved (mm) and its landmark errors: whether
+the start's rules (levels held by the body, sections, openings) turn rounding into a jump.
 """
 from __future__ import annotations
 
@@ -32,12 +37,25 @@ def base_context(base, b0, edge_length_cm: float):
     return prepare(base, b0, b0, st)
 
 
-def level_scaled(base, ctx, b0, b1):
+def level_scaled(base, ctx, b0, b1, xbar=None, *, with_uv: bool = False):
     from seamfit.mesh import outline_from_uv
     from seamfit.opt.level_scale import level_scaled_pattern
     from seamfit.pattern.refit import refit_pattern
-    p = level_scaled_pattern(ctx.mesh, ctx.xbar, b0, b1, ctx.base_sdf)
-    return refit_pattern(base, outline_from_uv(ctx.mesh, 100.0 * p)).pattern
+    p = level_scaled_pattern(ctx.mesh, ctx.xbar if xbar is None else xbar, b0, b1, ctx.base_sdf)
+    pattern = refit_pattern(base, outline_from_uv(ctx.mesh, 100.0 * p)).pattern
+    return (pattern, p) if with_uv else pattern
+
+
+def perturbed_starts(base, ctx, b0, b1, truth, sigma: float, rng) -> dict:
+    """Two starts from x-bar moved by N(0, sigma^2) metres: how far each moved from the
+    unperturbed start (mm, the largest pattern vertex move) and its landmark error."""
+    _, p0 = level_scaled(base, ctx, b0, b1, with_uv=True)
+    out = {"sigma_m": sigma, "move_mm": [], "level": []}
+    for _ in range(2):
+        pat, p = level_scaled(base, ctx, b0, b1, ctx.xbar + rng.normal(0.0, sigma, ctx.xbar.shape), with_uv=True)
+        out["move_mm"].append(float(1000.0 * np.abs(p - p0).max()))
+        out["level"].append(landmark_errors(pat, truth).max_cm)
+    return out
 
 
 def main(argv=None) -> int:
@@ -48,6 +66,8 @@ def main(argv=None) -> int:
     ap.add_argument("--edge-length", type=float, default=3.0)
     ap.add_argument("--out", type=Path, default=None)
     ap.add_argument("--save", type=Path, default=None, help="write each start as SAVE/<garment>/<body>/level.json")
+    ap.add_argument("--perturb-xbar", type=float, default=0.0, metavar="SIGMA",
+                    help="also start from x-bar moved by this much noise (m) and report the move")
     a = ap.parse_args(argv)
     index = json.loads((a.data / "patterns" / "index.json").read_text())
     garments = sorted(index["garments"]) if not a.garments else a.garments.split(",")
@@ -88,12 +108,20 @@ def main(argv=None) -> int:
             print(f"{g:18s} {body:10s} unchanged {row['unchanged']:5.2f}  scaled {row['scaled']:5.2f}  "
                   f"level {row['level'] if row['level'] is None else round(row['level'], 2)}  "
                   f"({row['seconds']:.1f} s) {row.get('level_worst', '')} {row.get('error', '')}", flush=True)
+            if a.perturb_xbar > 0 and row["level"] is not None:
+                q = row["perturbed"] = perturbed_starts(base, ctx, b0, b1, truth, a.perturb_xbar,
+                                                        np.random.default_rng(0))
+                print(f"    x-bar moved by N(0, {q['sigma_m']:g} m): start moved {max(q['move_mm']):.4f} mm, "
+                      f"level {', '.join(f'{e:.3f}' for e in q['level'])}", flush=True)
     ok = [r for r in rows if r["level"] is not None]
     if ok:
         for k in ("unchanged", "scaled", "level"):
             print(f"median {k}: {np.median([r[k] for r in ok]):.2f} cm")
         print(f"mean landmark error, level: {np.mean([r['level_mean'] for r in ok]):.3f} cm")
         print(f"level better than scaled in {sum(r['level'] < r['scaled'] for r in ok)} of {len(ok)}")
+        moved = [max(r["perturbed"]["move_mm"]) for r in ok if "perturbed" in r]
+        if moved:
+            print(f"x-bar perturbed: the start moved at most {max(moved):.4f} mm over {len(moved)} cases")
     if a.out:
         a.out.write_text(json.dumps(rows, indent=1) + "\n")
     return 0

@@ -1,7 +1,7 @@
 """`seamfit grade --device`: the grading loop's simulations (base drape, inexact
 steps, exact checkpoints) and its adjoint solve on each device, "cpu" always and
 "cuda" where a GPU is present (there with df/dp and the costs); the regularizers and the
-pattern update run on the CPU in both (docs/gpu.md)."""
+pattern update run on the CPU in both (docs/gpu_backend.md)."""
 import json
 
 import numpy as np
@@ -104,9 +104,9 @@ def test_gpu_grading_matches_the_cpu_as_closely_as_two_cpu_solvers():
     the CPU's iteration up to the order of sums, and its adjoint by MINRES to F = 0.01 at inexact states) must stay
     within that spread of the CPU: its median pattern distance within the CPU pair's largest
     plus 0.5 mm, its mean objective ratio within the CPU pair's largest deviation plus 5 %.
-    Measured on an H100 (docs/gpu.md, "Grading on the GPU"): over six cases (these three
-    meshes, to size 10 and to the apple body) the GPU ended -18 % to +24 % from the CPU with
-    F = 0.01 and -16 % to +22 % with F = 0."""
+    Measured on an H100 (docs/gpu_backend.md, "The gradings' agreement with the CPU"): over
+    six cases (these three meshes, to size 10 and to the apple body) the GPU ended -18 % to
+    +24 % from the CPU with F = 0.01 and -16 % to +22 % with F = 0."""
     d_cc, d_cg, r_cc, r_cg = [], [], [], []
     for edge in (3.6, 4.0, 4.4):
         cpu = _grade_api("cpu", edge_length_cm=edge)

@@ -195,7 +195,7 @@ def test_float32_rest_state_stays_within_its_rounding(device, skirt):
     """float32 storage of the rest state (rest lengths, shirring, bending
     matrix, masses, barrier weights): the force moves by what rounding a rest
     length to 2^-24 does to a spring force (about Y 2^-24 per spring), far
-    more than float64's 1e-12; docs/gpu.md weighs it against the residual."""
+    more than float64's 1e-12; docs/gpu_backend.md weighs it against the residual."""
     mesh, sdf = skirt
     sim = Simulator(mesh, sdf, Fabric(), SimSettings(barrier_distance=0.03))
     x = sim.solve(mesh.x0, max_iterations=400, gravity_scale=0.0).x

@@ -1,4 +1,4 @@
-// GPU adjoint solve (see adjoint_gpu.hpp, docs/gpu.md "The adjoint on the GPU").
+// GPU adjoint solve (see adjoint_gpu.hpp, docs/gpu_backend.md "The adjoint on the GPU").
 //
 // Per state: one kernel stores every spring's Hessian block, one stores each
 // vertex's own block and its preconditioner block (PSD) and sums |diag H| for

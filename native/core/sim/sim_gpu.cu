@@ -1,4 +1,4 @@
-// CUDA backend of the quasistatic simulator (see sim_gpu.hpp, docs/gpu.md).
+// CUDA backend of the quasistatic simulator (see sim_gpu.hpp, docs/gpu_backend.md).
 //
 // One iteration is three kernels: the step (block-Jacobi direction, Chebyshev
 // combination, barrier-safe step, and the field sample at the new position),

@@ -112,7 +112,7 @@ def _drape(args, pattern, body, tmp: Path, out: Path, t0: float, console=None) -
     mesh = build_sewn_mesh(pattern, args.edge_length)
     say(f"mesh: {mesh.n_vertices} vertices, {len(mesh.triangles)} triangles, "
         f"{len(mesh.sewing_pairs)} sewing pairs")
-    # On the GPU, Newton's steps are solved by MINRES there (docs/gpu.md), and the body's
+    # On the GPU, Newton's steps are solved by MINRES there (docs/gpu_backend.md), and the body's
     # field is built there too.
     device_choice = choose_device(args.device, problem_size=int(mesh.n_vertices))
     device = device_choice["device"]

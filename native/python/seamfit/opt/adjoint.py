@@ -35,7 +35,7 @@ from equilibrium, where H is indefinite with eigenvalues of both signs within 1e
 its scale, so that the direct solve's lam is dominated by those near-singular modes
 and the implicit-function gradient does not hold anyway) MINRES's last iterate, the
 minimum-residual solution in its Krylov space, is kept (counted in `truncated`).
-docs/gpu.md, "The adjoint on the GPU", has the measurements behind this.
+docs/gpu_backend.md, "The adjoint on the GPU", has the measurements behind this.
 """
 from __future__ import annotations
 
@@ -51,7 +51,7 @@ from ..errors import SolveError
 from ..device_arrays import Buffers, all_finite, host, is_device
 
 DEFAULT_SHIFT = 1e-8
-# MINRES on the GPU: |r|_{M^-1} <= tol |g|_{M^-1}; docs/gpu.md has the gradient error
+# MINRES on the GPU: |r|_{M^-1} <= tol |g|_{M^-1}; docs/gpu_backend.md has the gradient error
 # against the direct solve at each tolerance.
 GPU_TOLERANCE = 1e-8
 GPU_MAX_ITERATIONS = 10000

@@ -121,7 +121,7 @@ class GradeSettings:
                      "reason if none can be used)"),
         addon=Addon("device", "Device"))
     # Inexact Newton's forcing rule: MINRES to max(1e-8, adjoint_forcing * residual) at
-    # inexact states, 1e-8 at settled ones (docs/gpu.md).
+    # inexact states, 1e-8 at settled ones (docs/gpu_backend.md, "The adjoint on the GPU").
     adjoint_forcing: float = setting(
         0.01, "on the GPU, solve the adjoint at inexact states only to this times the state's residual (0: to "
         "1e-8 everywhere, as the CPU's direct solve, 4x slower at 60K triangles)", low=0, high=1,

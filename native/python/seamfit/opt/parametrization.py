@@ -17,7 +17,8 @@ class Parametrization:
     gives (dp/dtheta)^T g for a gradient ``g`` with respect to all pattern vertices.
     """
 
-    # Device memory the GPU's dense interior blocks may take (docs/gpu.md).
+    # Device memory the GPU's dense interior blocks may take (docs/gpu_backend.md,
+    # "The pattern side on the GPU").
     GPU_MAX_BYTES = 4 << 30
 
     def __init__(self, mesh):

@@ -65,7 +65,7 @@ def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, 
     if not res.converged:
         edge_mm, spacing_mm = 10.0 * float(mesh.edge_length_cm), 1000.0 * float(sdf.spacing)
         # Measured at 150K triangles: 2.85 mm edges plateau on a 2.5 mm field, settle on 1.8 mm
-        # (docs/gpu.md, "The base drape on the GPU").
+        # (docs/gpu_backend.md, "What stands between the measurements and the aims").
         hint = (f"; the mesh's edges ({edge_mm:.2g} mm) are near the body field's spacing ({spacing_mm:.2g} mm): "
                 f"a finer SDF spacing may let it settle" if edge_mm < 2 * spacing_mm else "")
         raise SolveError(f"the base garment did not settle on the base body: {res.message} "
@@ -120,7 +120,7 @@ class GradeContext:
     def exact(self, theta, x_start, stage):
         """The drape of p(theta) on the target body, warm-started at x_start, solved to the
         exact tolerance within the simulator's iteration budget (at 60K triangles the
-        budget ends first: docs/gpu.md, "What stands between")."""
+        budget ends first: docs/gpu_backend.md, "What stands between")."""
         self.sim.set_pattern(self.param.pattern(theta))
         res = self.sim.solve(x_start, tolerance=self.exact_tolerance, progress=self.sim_progress(stage))
         if res.cancelled:
@@ -249,7 +249,7 @@ def prepare(base_pattern: Pattern, base_body, target_body, settings, *, fabric: 
         regs.add_to_preconditioner(seam.gauss_newton())
     if device == "cuda":
         # R^fix + R^cur, R^seam and P^-1 too; P^-1 stays on the CPU, with the reason in
-        # regs.device_note, when it would not fit (docs/gpu.md).
+        # regs.device_note, when it would not fit (docs/gpu_backend.md).
         regs.use_device("cuda")
         seam.use_device("cuda")
     costs = CostSet(mesh, xbar, strengths, target_sdf=target_sdf, base_sdf=base_sdf, xtilde=xtilde)

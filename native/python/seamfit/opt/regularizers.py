@@ -26,13 +26,13 @@ class Regularizers:
     docs/grading.md).
 
     ``use_device("cuda")`` moves ``evaluate`` and ``apply_preconditioner`` to the GPU
-    (P^-1 dense in GPU memory, docs/gpu.md); the strengths and P stay in the CPU objects,
+    (P^-1 dense in GPU memory, docs/gpu_backend.md); the strengths and P stay in the CPU objects,
     which the GPU copy reads, so ``set_strengths`` and ``add_to_preconditioner`` apply
     to it too.
     """
 
     # Device memory P^-1 may take: 8 (2 n_theta)^2 bytes, 81 MiB at 60K triangles
-    # (docs/gpu.md, "The regularizers, R^seam and P^-1 on the GPU").
+    # (docs/gpu_backend.md, "The regularizers, R^seam and P^-1 on the GPU").
     GPU_MAX_BYTES = 512 << 20
 
     def __init__(self, param, delta_fix: float, delta_cur: float, corner_weight: float = CORNER_WEIGHT, *,

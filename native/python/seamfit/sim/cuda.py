@@ -3,7 +3,7 @@
 ``CudaSimulator(simulator)`` copies a built simulator (topology, rest state,
 parameters, body SDF) to a CUDA device and runs its force, energy and the
 Chebyshev-accelerated block-Jacobi solve there, with the CPU solver's rules and
-the same energy functions (see docs/gpu.md). The CPU simulator stays the owner
+the same energy functions (see docs/gpu_backend.md). The CPU simulator stays the owner
 of the model: after changing it (parameters, pattern, shirring, sticking,
 body) call ``sync()``, which ``solve`` does by default.
 
@@ -25,7 +25,7 @@ class CudaSimulator:
     simulator: a seamfit.sim.Simulator (its settings supply the solver
         controls) or a seamfit._core.Simulator.
     float_rest: store rest lengths, shirring, the bending matrix, masses and
-        barrier weights as float32 (arithmetic stays float64); see docs/gpu.md
+        barrier weights as float32 (arithmetic stays float64); see docs/gpu_backend.md
         for what that costs in accuracy.
     batch: iterations per graph launch between two looks of the host (even).
     block, lanes: threads per block, and threads per vertex in the force

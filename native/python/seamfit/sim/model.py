@@ -421,7 +421,7 @@ class Simulator:
             of settings.chunk iterations);
         "polish" (Chebyshev only, settings.polish): Newton from where the settle
             stage stopped, when it stopped above the tolerance; on the GPU its
-            steps are solved by MINRES there (inexact Newton, docs/gpu.md).
+            steps are solved by MINRES there (inexact Newton, docs/gpu_backend.md).
         progress(iteration, residual) is called every settings.progress_every
         iterations, counting over all stages; returning False cancels (reported
         in the result, never raised).

@@ -97,6 +97,12 @@ def at(points: list, budget: float):
     return done[-1] if done else None
 
 
+def reached(cases: list, budget: float) -> list:
+    """The last scored state of each case reached within ``budget`` seconds, for the cases
+    that reached one."""
+    return [s for s in (at(c["points"], budget) for c in cases) if s is not None]
+
+
 def cmd_run(a) -> int:
     from bench_accuracy import discover
     pairs = discover(a.data, "size06", a.garments.split(",") if a.garments else None,
@@ -153,8 +159,7 @@ def cmd_report(a) -> int:
         cs = [c for c in rows if c["edge_length_cm"] == edge and c["device"] == dev]
         cells, lm_y, ez_y = [], [], []
         for b in budgets:
-            got = [at(c["points"], b) for c in cs]
-            got = [g for g in got if g is not None]
+            got = reached(cs, b)
             lm = st.median([g["landmark_max_cm"] for g in got]) if got else float("nan")
             ez = [g["ease_error_cm"] for g in got if g["ease_error_cm"] is not None]
             ezm = st.median(ez) if ez else float("nan")

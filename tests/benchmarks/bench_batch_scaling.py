@@ -103,6 +103,15 @@ def cmd_run(a) -> int:
     return 0
 
 
+def vs_linear(run: dict, r: dict) -> float | None:
+    """A CPU row's throughput against one worker's times its workers (None: a GPU row, or no
+    one-worker row to compare with)."""
+    base = next((x for x in run["rows"] if x["kind"] == "cpu" and x["workers"] == 1), None)
+    if r["kind"] != "cpu" or not base or not base["per_hour"]:
+        return None
+    return r["per_hour"] / (base["per_hour"] * r["workers"])
+
+
 def cmd_report(a) -> int:
     runs = [json.loads(Path(p).read_text()) for p in a.results]
     lines = ["# `seamfit batch`: throughput against workers", "",
@@ -116,11 +125,9 @@ def cmd_report(a) -> int:
                   f"{run.get('rounds', 2)} jobs per worker. Command: `{run['command']}`", "",
                   "| hardware | workers | jobs | done | wall s | gradings / h | vs linear | median job s |",
                   "|---|---:|---:|---:|---:|---:|---:|---:|"]
-        base = next((r for r in run["rows"] if r["kind"] == "cpu" and r["workers"] == 1), None)
         for r in run["rows"]:
             hw = "CPU" if r["kind"] == "cpu" else f"{r['gpus']} GPU, {r['share']:g} each"
-            lin = (f"{r['per_hour'] / (base['per_hour'] * r['workers']):.2f}x"
-                   if base and r["kind"] == "cpu" and base["per_hour"] else "-")
+            lin = "-" if vs_linear(run, r) is None else f"{vs_linear(run, r):.2f}x"
             med = f"{r['job_seconds_median']:.1f}" if r.get("job_seconds_median") else "-"
             lines.append(f"| {hw} | {r['workers']} | {r['jobs']} | {r['done']} | {r['wall_s']:.1f} | "
                          f"{r['per_hour']:.0f} | {lin} | {med} |")

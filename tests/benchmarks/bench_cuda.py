@@ -28,7 +28,6 @@ import argparse
 import json
 import os
 import platform
-import re
 import sys
 import time
 from pathlib import Path
@@ -38,6 +37,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "native" / "python"))
+from doc_page import fill, table  # noqa: E402
 
 PATTERNS = ROOT / "sample_files" / "patterns"
 GARMENT = PATTERNS / "gc_circle_skirt" / "size06" / "pattern.json"
@@ -394,9 +394,9 @@ def tables(res: dict, cpu: dict, dev: dict) -> dict[str, str]:
                     + [f"{r['gpu_us_per_iteration_fused']:.1f}"] * fused
                     + [lanes, str(r["lanes_auto"]), f"{c:,.0f}", f"{d:,.0f}",
                        f"{c / r['gpu_us_per_iteration_graph']:.0f}x"])
-    out = {"iterations": _table(head, rows)}
+    out = {"iterations": table(head, rows)}
     bw = res.get("peak_copy_bytes_per_s") or float("nan")
-    out["kernels"] = _table(
+    out["kernels"] = table(
         ["triangles", "eval + control us", "step us", "slot us", "eval MB", "step MB", "eval GB/s", "% of copy rate",
          "step GB/s"],
         [[f"{r['triangles']:,}", f"{r['kernel_eval_us']:.1f}", f"{r['kernel_step_us']:.1f}",
@@ -406,14 +406,14 @@ def tables(res: dict, cpu: dict, dev: dict) -> dict[str, str]:
 
     def mb(x):  # the small ones keep a digit that counts
         return f"{x:.1f}" if x >= 1 else f"{x:.2f}"
-    out["ncu"] = _table(
+    out["ncu"] = table(
         ["kernel", "grid", "time us", "DRAM read MB", "DRAM % of peak", "L2 bytes MB", "L2 % of peak", "warps active",
          "instructions"],
         [[k["kernel"], f"{k['grid']} x {k['block']}", f"{k['time_us']:.1f}", mb(k["dram_read_mb"]),
           f"{k['dram_pct']:.0f} %", mb(k["l2_mb"]), f"{k['l2_pct']:.0f} %", f"{k['warps_pct']:.0f} %",
           f"{k['instructions'] / 1e6:.3g} M" if k["instructions"] >= 1e6 else f"{k['instructions'] / 1e3:.3g} K"]
          for k in res.get("ncu", [])])
-    out["precision"] = _table(
+    out["precision"] = table(
         ["triangles", "float64: max force difference (N)", "relative to max(|f|, Y)",
          "float32 rest: relative difference", "float32: shift of the residual", "float32 us/it"],
         [[f"{r['triangles']:,}", _sci(r["f64_abs_err"]), _sci(r["f64_rel_err"]), _sci(r["f32_rel_err"]),
@@ -434,15 +434,9 @@ def tables(res: dict, cpu: dict, dev: dict) -> dict[str, str]:
             rows.append([garment if label == "gpu_f64" else "", names[label], verdict, f"{h['iterations']:,}",
                          f"{h['seconds']:.3g}", _sci(res_x) if res_x < 0.01 else f"{res_x:.2g}",
                          f"{h['max_sewing_gap_mm']:.2f} mm", vs])
-    out["drapes"] = _table(["garment", "run", "verdict", "iterations", "seconds", "residual at the result, on the CPU",
+    out["drapes"] = table(["garment", "run", "verdict", "iterations", "seconds", "residual at the result, on the CPU",
                             "seam gap", "vs float64 GPU"], rows)
     return out
-
-
-def _table(head: list[str], rows: list[list[str]]) -> str:
-    def line(cells):
-        return "|" + "|".join(f" {c} " if c else " " for c in cells) + "|"
-    return "\n".join([line(head), "|" + "---|" * len(head)] + [line(r) for r in rows])
 
 
 def report(args) -> int:
@@ -452,7 +446,7 @@ def report(args) -> int:
     plot(res, cpu, dev, args.docs / "img")
     blocks = tables(res, cpu, dev)
     # each line <!-- name --> of the notes is the table of that name
-    page = re.sub(r"^<!-- (\w+) -->$", lambda m: blocks[m.group(1)], args.notes.read_text(), flags=re.M)
+    page = fill(args.notes.read_text(), blocks)
     (args.docs / "gpu_results.md").write_text(page)
     print(f"wrote {args.docs / 'gpu_results.md'} and its plots under {args.docs / 'img'}")
     return 0

@@ -153,6 +153,12 @@ def gpu_name() -> str | None:
         return None
 
 
+def vs_one(run: dict, r: dict) -> float | None:
+    """A row's throughput against one grading at a time on the same device (None: no such row)."""
+    one = next((x for x in run["rows"] if x["device"] == r["device"] and x["at_once"] == 1), None)
+    return r["per_hour"] / one["per_hour"] if one and one["per_hour"] else None
+
+
 def cmd_report(a) -> int:
     runs = [json.loads(Path(p).read_text()) for p in a.results]
     lines = ["# Gradings at the default settings sharing one GPU", "",
@@ -168,8 +174,7 @@ def cmd_report(a) -> int:
                   "GPU busy % |",
                   "|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|"]
         for r in run["rows"]:
-            one = next((x for x in run["rows"] if x["device"] == r["device"] and x["at_once"] == 1), None)
-            rel = f"{r['per_hour'] / one['per_hour']:.2f}x" if one and one["per_hour"] else "-"
+            rel = "-" if vs_one(run, r) is None else f"{vs_one(run, r):.2f}x"
             err = (f"{r['error_cm_median']:.2f} / {r['error_cm_max']:.2f}" if r.get("error_cm_median") is not None
                    else "-")
             mem = f"{r['gpu_mem_peak_mib']:.0f}" if r.get("gpu_mem_peak_mib") is not None else "-"

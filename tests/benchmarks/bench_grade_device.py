@@ -31,6 +31,7 @@ sys.path.insert(0, str(ROOT / "native" / "python"))
 from seamfit.fileio import atomic_write_text  # noqa: E402
 from seamfit.opt.grade import GradeSettings  # noqa: E402
 from bench_cli import DOCS, Commands  # noqa: E402
+from doc_page import table  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import measure_switches  # noqa: E402
@@ -129,6 +130,19 @@ def cmd_run(args) -> int:
     return 0
 
 
+def adjoint_s(split: dict) -> float:
+    """The adjoint's seconds of a loop's split: the CPU's factorizations and solves, or MINRES."""
+    return split["factorizations"] + split.get("adjoint_solves", 0.0)
+
+
+def curves_table(runs: list, loop: str = ".0f") -> str:
+    """The table of a curves run, a row per device and S (``loop``: the format of its seconds)."""
+    return table(["device", "S", "triangles", "loop s", "outer iterations done", "backtracks", "final objective"],
+                 [[r["device"], str(r["S"]), f"{r['triangles']:,}", format(r["seconds_loop"], loop),
+                   str(r["outer_iterations_done"]), str(r["backtracks"]), f"{r['objective_final']:.3f}"] for r in runs],
+                 "lrrrrrr")
+
+
 def cmd_report(args) -> int:
     import matplotlib
     matplotlib.use("Agg")
@@ -171,7 +185,7 @@ def cmd_report(args) -> int:
             f"{'cached' if bd.get('cached') else format(bd['seconds'], '.1f')}"
             f"{' (unsettled, residual ' + format(bd['residual'], '.2g') + ')' if bd.get('converged') is False else ''} | "
             f"{r['seconds_loop']:.1f} | {r['seconds_per_iteration']:.3f} | {sp['simulation']:.1f} | "
-            f"{sp['gradient']:.1f} | {sp['factorizations'] + sp.get('adjoint_solves', 0.0):.1f} | {minres} | "
+            f"{sp['gradient']:.1f} | {adjoint_s(sp):.1f} | {minres} | "
             f"{sp['objective']:.1f} | {r['outer_iterations']} / "
             f"{r['outer_iterations_done']} | {100 * r['objective_reduction']:.1f} % | "
             f"{format(r['pattern_difference_mm'], '.2f') if 'pattern_difference_mm' in r else '-'} |")
@@ -209,21 +223,16 @@ def cmd_report(args) -> int:
                   "iterations per outer iteration (a backtrack doubles it, accepted checkpoints halve it back), objective at the accepted exact "
                   "checkpoints against loop time, as the paper's Fig. 10."
                   + "".join(f" {', '.join(m.get('devices', []) or ['cpu'])} on {m['machine']}"
-                            f"{', ' + m['gpu'] if m.get('gpu') else ''}: `{m['command']}`." for m in cmetas), "",
-                  "| device | S | triangles | loop s | outer iterations done | backtracks | final objective |",
-                  "|---|---:|---:|---:|---:|---:|---:|"]
-        for r in cur:
-            lines.append(f"| {r['device']} | {r['S']} | {r['triangles']:,} | {r['seconds_loop']:.0f} | "
-                         f"{r['outer_iterations_done']} | {r['backtracks']} | {r['objective_final']:.3f} |")
-        lines += ["", "![objective against time](img/grade_s_curves.png)", ""]
+                            f"{', ' + m['gpu'] if m.get('gpu') else ''}: `{m['command']}`." for m in cmetas), ""]
+        lines += [curves_table(cur), "", "![objective against time](img/grade_s_curves.png)", ""]
     atomic_write_text(args.docs / "grade_device_results.md", "\n".join(lines) + "\n")
     print(f"wrote {args.docs / 'grade_device_results.md'} and {img}")
     return 0
 
 
-def plot_curves(runs, docs: Path) -> Path:
+def plot_curves(runs, docs: Path, name: str = "grade_s_curves.png") -> Path:
     """The paper's Fig. 10 for these runs: (f - f*) / (f0 - f*) at the accepted checkpoints
-    against loop time (log axes: the devices are an order of magnitude apart)."""
+    against loop time (log axes: the devices are an order of magnitude apart), as docs/img/NAME."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -243,7 +252,7 @@ def plot_curves(runs, docs: Path) -> Path:
     ax.set_title(f"Objective against time, {runs[0]['triangles']:,} triangles")
     ax.legend(ncol=2, fontsize=8)
     fig.tight_layout()
-    img = docs / "img" / "grade_s_curves.png"
+    img = docs / "img" / name
     img.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(img, dpi=110)
     plt.close(fig)

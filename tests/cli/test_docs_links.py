@@ -1,6 +1,5 @@
 """Every relative link in README.md and docs/*.md points at a file (or folder) that exists,
-and a link's #anchor, where it names a markdown page, at one of that page's headings (or an
-HTML anchor, `<a id="...">`, that GitHub also scrolls to). Pure
+and a link's #anchor, where it names a markdown page, at one of that page's headings. Pure
 text: a moved or renamed file (a page, a picture, a benchmark's data under
 docs/results/data/) cannot leave a dead link behind."""
 from __future__ import annotations
@@ -27,7 +26,6 @@ _LINK = re.compile(r"\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
 _REF_DEF = re.compile(r"^\s{0,3}\[[^\]]+\]:\s*<?(\S+?)>?(?:\s+\"[^\"]*\")?\s*$")
 _HEADING = re.compile(r"^\s{0,3}(#{1,6})\s+(.*?)\s*#*\s*$")
 _SCHEME = re.compile(r"^[a-zA-Z][a-zA-Z0-9+.-]*:")
-_HTML_ANCHOR = re.compile(r"<a\s+(?:id|name)=\"([^\"]+)\"")
 
 
 def _prose_lines(text: str, blank_code: bool = True):
@@ -69,7 +67,6 @@ def anchors(page: Path) -> set[str]:
     seen: dict[str, int] = {}
     out = set()
     for _, line in _prose_lines(page.read_text(encoding="utf-8"), blank_code=False):
-        out.update(a.lower() for a in _HTML_ANCHOR.findall(line))
         m = _HEADING.match(line)
         if not m:
             continue
@@ -123,6 +120,5 @@ def test_link_parser():
             found.append(m.group(1))
     assert found == ["x.md#b", "img/p.png", "img/q.png", "img/q.svg", "ref/def.json"], found
     assert _slug("The adjoint on the GPU") == "the-adjoint-on-the-gpu"
-    assert _HTML_ANCHOR.findall('- <a id="design"></a>[Design](x.md#design)') == ["design"]
     assert _slug("Bodies from measurements (`from_measurements`, `seamfit body`)") == \
         "bodies-from-measurements-from_measurements-seamfit-body"

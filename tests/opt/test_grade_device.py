@@ -1,7 +1,7 @@
 """`seamfit grade --device`: the grading loop's simulations (base drape, inexact
 steps, exact checkpoints) and its adjoint solve on each device, "cpu" always and
-"cuda" where a GPU is present (there with df/dp and the costs); the regularizers and the
-pattern update run on the CPU in both (docs/gpu_backend.md)."""
+"cuda" where a GPU is present (there with df/dp, the costs, the regularizers and the
+pattern's parametrization too; docs/gpu_backend.md)."""
 import json
 
 import numpy as np

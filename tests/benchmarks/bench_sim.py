@@ -5,10 +5,11 @@ descent and Newton, on a few garments at two mesh resolutions, plus (with
     PYTHONPATH=native/python python tests/benchmarks/bench_sim.py run --out OUT.json [--quick] [--sweep DATA_DIR]
     PYTHONPATH=native/python python tests/benchmarks/bench_sim.py report OUT.json
 
-``run`` writes the numbers to OUT.json, docs/img/sim_convergence.png (and with --sweep
-docs/img/drapes.png) and docs/simulator_results.md from OUT.json, and prints the tables;
-``report`` rewrites the page from OUT.json alone (the residual histories behind the
-pictures are not kept). --docs names another folder for the page and pictures. Each case is
+``run`` writes the numbers to OUT.json (with each convergence run's residual history,
+thinned to at most HISTORY_POINTS points), with --sweep also docs/img/drapes.png, then
+reports, and prints the tables; ``report`` rewrites docs/simulator_results.md and draws
+docs/img/sim_convergence.png from OUT.json alone (the drapes behind drapes.png are not
+kept). --docs names another folder for the page and pictures. Each case is
 meshed, dressed and sewn once (gravity off, Chebyshev); both solvers then settle
 the same sewn state under gravity, so the curves compare the solvers, not the
 dressing. Timings depend on the machine and its load; the report says which
@@ -40,6 +41,7 @@ from bench_cli import Commands  # noqa: E402
 
 CASES = [("gc_pencil_skirt", "size06"), ("fs_bodice", "size06"), ("gc_circle_skirt", "size06")]
 BODY_FILE = {"man_medium": "men_medium"}
+HISTORY_POINTS = 200  # the most points of a residual history OUT.json keeps
 
 
 def body_path(root: Path, body_id: str) -> Path:
@@ -53,6 +55,16 @@ def setup(root: Path, garment: str, body_id: str, edge_cm: float, settings: SimS
     sdf = build_sdf(body)
     x0, _ = initial_positions(mesh, pattern, sdf)
     return pattern, mesh, body, sdf, x0, Simulator(mesh, sdf, Fabric(), settings)
+
+
+def thin_history(history: dict[str, list]) -> dict[str, list]:
+    """A solver's history (iteration, seconds, residual lists) as plain lists of at most
+    HISTORY_POINTS evenly spaced samples, first and last kept, to 4 significant digits."""
+    n = len(history["residual"])
+    keep = sorted({int(i) for i in np.linspace(0, n - 1, min(n, HISTORY_POINTS))}) if n else []
+    return {"iteration": [int(history["iteration"][i]) for i in keep],
+            "seconds": [float(f"{history['seconds'][i]:.4g}") for i in keep],
+            "residual": [float(f"{history['residual'][i]:.4g}") for i in keep]}
 
 
 def convergence(root: Path, edges: list[float], budget_s: float, tol: float) -> list[dict]:
@@ -75,7 +87,7 @@ def convergence(root: Path, edges: list[float], budget_s: float, tol: float) -> 
                            seconds_per_iteration=per_it,
                            ns_per_triangle_iteration=1e9 * per_it / len(mesh.triangles),
                            threads=int(sim2.core.threads), restarts=st.get("restarts", 0),
-                           history_seconds=res.history["seconds"], history_residual=res.history["residual"])
+                           history=thin_history(res.history))
                 rows.append(row)
                 print(f"{garment:16s} {edge:4.1f} cm {mesh.n_vertices:6d} v {len(mesh.triangles):6d} t  {method:9s} "
                       f"{res.iterations:7d} it {res.seconds:7.1f} s  residual {res.residual:.2e}  "
@@ -131,7 +143,7 @@ def plot(rows: list[dict], path: Path) -> None:
             ax = axes[i][j]
             for r in rows:
                 if r["garment"] == g and r["edge_cm"] == e:
-                    ax.semilogy(r["history_seconds"], r["history_residual"], label=r["method"],
+                    ax.semilogy(r["history"]["seconds"], r["history"]["residual"], label=r["method"],
                                 color="C0" if r["method"] == "chebyshev" else "C3")
                     tri = r["triangles"]
             ax.axhline(1e-3, color="grey", lw=0.8, ls="--")
@@ -145,9 +157,11 @@ def plot(rows: list[dict], path: Path) -> None:
     plt.close(fig)
 
 
-def write_md(path: Path, conv: list[dict], sw: list[dict], machine: str) -> None:
+def write_md(path: Path, conv: list[dict], sw: list[dict], machine: str, command: str | None,
+             commit: str | None) -> None:
+    by = f"`{command or 'tests/benchmarks/bench_sim.py'}` on {machine}" + (f" at commit {commit}" if commit else "")
     lines = ["# Simulator results", "",
-             f"Measured by `tests/benchmarks/bench_sim.py` on {machine}. Timings are wall-clock on a shared, "
+             f"Measured by {by}. Timings are wall-clock on a shared, "
              "loaded machine and vary by tens of percent between runs.", ""]
     if conv:
         lines += ["## Convergence: Chebyshev gradient descent against Newton", "",
@@ -185,7 +199,7 @@ def write_md(path: Path, conv: list[dict], sw: list[dict], machine: str) -> None
 def cmd_run(args) -> int:
     machine = f"{platform.processor() or platform.machine()}, {os.cpu_count()} logical CPUs"
     if args.no_convergence:
-        # keep the convergence rows of the last run (their plot stays as it is)
+        # keep the convergence rows of the last run (the report draws their plot again)
         conv = json.loads(args.out.read_text()).get("convergence", []) if args.out.exists() else []
     else:
         conv = convergence(args.data, [2.0] if args.quick else [2.0, 1.0], 30.0 if args.quick else args.budget,
@@ -193,24 +207,26 @@ def cmd_run(args) -> int:
     pictures: list = []
     sw = sweep(args.sweep, 60.0 if args.quick else 300.0, args.sweep_only, args.sweep_bodies, args.sweep_base,
                pictures) if args.sweep else []
-    if conv and not args.no_convergence:
-        plot(conv, args.docs / "img" / "sim_convergence.png")
     if pictures:
         from seamfit.sim.render import render_front_grid
         # one picture per garment, on the base body
         base = [item for item in pictures if item[0].endswith("/ size06")] or pictures
         render_front_grid(args.docs / "img" / "drapes.png", base)
+    from bench_accuracy import git_commit
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(
-        {"machine": machine, "command": " ".join(sys.argv),
-         "convergence": [{k: v for k, v in r.items() if not k.startswith("history")} for r in conv],
+        {"machine": machine, "commit": git_commit(), "command": " ".join(sys.argv), "convergence": conv,
          "sweep": sw}, indent=1))
     return cmd_report(argparse.Namespace(results=args.out, docs=args.docs))
 
 
 def cmd_report(args) -> int:
     data = json.loads(args.results.read_text())
-    write_md(args.docs / "simulator_results.md", data["convergence"], data["sweep"], data["machine"])
+    conv = data["convergence"]
+    if conv and all("history" in r for r in conv):  # data of earlier runs kept no histories
+        plot(conv, args.docs / "img" / "sim_convergence.png")
+    write_md(args.docs / "simulator_results.md", conv, data["sweep"], data["machine"], data.get("command"),
+             data.get("commit"))
     return 0
 
 

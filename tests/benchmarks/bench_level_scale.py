@@ -37,22 +37,22 @@ def base_context(base, b0, edge_length_cm: float):
     return prepare(base, b0, b0, st)
 
 
-def level_scaled(base, ctx, b0, b1, xbar=None, *, with_uv: bool = False):
+def level_scaled(base, ctx, b0, b1, xbar=None):
+    """The level-scaled start as a pattern (curves refitted) and its mesh's (N, 2) points (m)."""
     from seamfit.mesh import outline_from_uv
     from seamfit.opt.level_scale import level_scaled_pattern
     from seamfit.pattern.refit import refit_pattern
     p = level_scaled_pattern(ctx.mesh, ctx.xbar if xbar is None else xbar, b0, b1, ctx.base_sdf)
     pattern = refit_pattern(base, outline_from_uv(ctx.mesh, 100.0 * p)).pattern
-    return (pattern, p) if with_uv else pattern
+    return pattern, p
 
 
-def perturbed_starts(base, ctx, b0, b1, truth, sigma: float, rng) -> dict:
+def perturbed_starts(base, ctx, b0, b1, truth, p0, sigma: float, rng) -> dict:
     """Two starts from x-bar moved by N(0, sigma^2) metres: how far each moved from the
-    unperturbed start (mm, the largest pattern vertex move) and its landmark error."""
-    _, p0 = level_scaled(base, ctx, b0, b1, with_uv=True)
+    unperturbed start p0 (mm, the largest pattern vertex move) and its landmark error."""
     out = {"sigma_m": sigma, "move_mm": [], "level": []}
     for _ in range(2):
-        pat, p = level_scaled(base, ctx, b0, b1, ctx.xbar + rng.normal(0.0, sigma, ctx.xbar.shape), with_uv=True)
+        pat, p = level_scaled(base, ctx, b0, b1, ctx.xbar + rng.normal(0.0, sigma, ctx.xbar.shape))
         out["move_mm"].append(float(1000.0 * np.abs(p - p0).max()))
         out["level"].append(landmark_errors(pat, truth).max_cm)
     return out
@@ -91,7 +91,7 @@ def main(argv=None) -> int:
                    "unchanged": baseline_errors(base, truth).max_cm,
                    "scaled": landmark_errors(proportional_scale(base, m0, m1)[0], truth).max_cm}
             try:
-                start = level_scaled(base, ctx, b0, b1)
+                start, p0 = level_scaled(base, ctx, b0, b1)
                 if a.save:
                     from seamfit.pattern import save_pattern
                     (a.save / g / body).mkdir(parents=True, exist_ok=True)
@@ -109,7 +109,7 @@ def main(argv=None) -> int:
                   f"level {row['level'] if row['level'] is None else round(row['level'], 2)}  "
                   f"({row['seconds']:.1f} s) {row.get('level_worst', '')} {row.get('error', '')}", flush=True)
             if a.perturb_xbar > 0 and row["level"] is not None:
-                q = row["perturbed"] = perturbed_starts(base, ctx, b0, b1, truth, a.perturb_xbar,
+                q = row["perturbed"] = perturbed_starts(base, ctx, b0, b1, truth, p0, a.perturb_xbar,
                                                         np.random.default_rng(0))
                 print(f"    x-bar moved by N(0, {q['sigma_m']:g} m): start moved {max(q['move_mm']):.4f} mm, "
                       f"level {', '.join(f'{e:.3f}' for e in q['level'])}", flush=True)

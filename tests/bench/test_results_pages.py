@@ -21,8 +21,8 @@ README = DOCS / "results" / "data" / "README.md"
 # `python tests/benchmarks/NAME.py report ...` (or ncu-report) in the README's backquotes
 COMMAND = re.compile(r"`python (tests/benchmarks/\w+\.py (?:report|ncu-report) [^`]+)`")
 PICTURE = re.compile(r"!\[[^]]*\]\((img/[^)]+)\)")
-# Pictures only a run draws: the data keeps no drapes or GPU residual histories to draw them from.
-DRAWN_BY_THE_RUN = {"img/drapes.png", "img/gpu_drape_residual.png"}
+# Pictures only a run draws: the data keeps no drapes to draw them from.
+DRAWN_BY_THE_RUN = {"img/drapes.png"}
 
 
 def _commands() -> list[list[str]]:

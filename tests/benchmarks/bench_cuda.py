@@ -207,6 +207,7 @@ def drape_compare(d: Path, name: str, with_cpu: bool, sdf, threads: int, cpu_sec
     """Full drape (sew, then settle to 1e-3) of one size on the GPU (float64
     and float32 rest state) and on the CPU (time-capped per stage), each with
     an iteration budget of `gpu_iterations` per stage."""
+    from bench_sim import thin_history  # the same 200 points a simulator history keeps
     mesh = load_mesh(d, name)
     out = {"size": name, "triangles": int(len(mesh.triangles)), "vertices": int(len(mesh.uv_cm))}
     results = {}
@@ -229,8 +230,8 @@ def drape_compare(d: Path, name: str, with_cpu: bool, sdf, threads: int, cpu_sec
                       "converged": r.converged, "verdict": verdict, "message": r.message,
                       "max_sewing_gap_mm": r.max_sewing_gap_mm, "min_phi_mm": r.min_phi_mm,
                       "cpu_residual_at_x": float(make_sim(mesh, sdf).residual(r.x)),
-                      "history": r.history, "stages": [{k: v for k, v in s.items() if not k.startswith("history")}
-                                                       for s in r.stages]}
+                      "history": thin_history(r.history),
+                      "stages": [{k: v for k, v in s.items() if not k.startswith("history")} for s in r.stages]}
         log(f"drape {name} {label}: {r.message}; {r.iterations} iterations in {r.seconds:.2f} s")
     a, b = results["gpu_f64"].x, results["gpu_f32"].x
     out["f32_vs_f64_max_mm"] = float(1e3 * np.abs(a - b).max())

@@ -1,7 +1,7 @@
 """Stress suite: randomized drapes and gradings, each in its own process under a time
 limit, reporting NaN, crashes, hangs, rising checkpoint objectives and wall time.
 
-    python tests/benchmarks/stress.py run --runs 1000 --jobs 16 --out stress.json [--seed 1]
+    python tests/benchmarks/stress.py run --runs 1000 --jobs 16 --out stress.json [--seed 1] [--threads N]
     python tests/benchmarks/stress.py report stress.json [--notes FILE] [--docs docs]
 
 A run draws, from its own seed:
@@ -159,11 +159,15 @@ def run_one(spec: dict, timeout_s: float) -> dict:
     return {**spec, **res, "wall": time.perf_counter() - t}
 
 
-def run(n: int, seed: int, jobs: int, timeout_s: float, out: Path | None = None) -> list[dict]:
+def run(n: int, seed: int, jobs: int, timeout_s: float, out: Path | None = None, threads: int = 0) -> list[dict]:
     import os
     import tempfile
     # the distorted bodies' fields would crowd the user's cache out: a cache of its own
     os.environ.setdefault("SEAMFIT_CACHE_DIR", tempfile.mkdtemp(prefix="seamfit-stress-"))
+    # Each run's OpenMP threads, read by the spawned process when it loads the core: jobs
+    # that each take every core starve one another (16 x 16 threads on 16 cores made drapes
+    # of 2 s take 150-230 s and gradings pass the time limit).
+    os.environ["OMP_NUM_THREADS"] = str(threads or max(1, (os.cpu_count() or 1) // jobs))
     specs = [draw(seed * 100003 + i) for i in range(n)]
     rows: list[dict] = []
     from concurrent.futures import ThreadPoolExecutor, as_completed
@@ -244,6 +248,7 @@ def main(argv=None) -> int:
     r.add_argument("--jobs", type=int, default=2)
     r.add_argument("--timeout", type=float, default=300.0, help="seconds before a run counts as a hang")
     r.add_argument("--out", type=Path, default=None)
+    r.add_argument("--threads", type=int, default=0, help="OpenMP threads per run (default cores / jobs)")
     p = sub.add_parser("report")
     p.add_argument("results", type=Path)
     p.add_argument("--docs", type=Path, default=ROOT / "docs")
@@ -251,7 +256,7 @@ def main(argv=None) -> int:
                    help="the reading of the run, put above the table (default tests/benchmarks/stress_note.md)")
     a = ap.parse_args(argv)
     if a.cmd == "run":
-        rows = run(a.runs, a.seed, a.jobs, a.timeout, a.out)
+        rows = run(a.runs, a.seed, a.jobs, a.timeout, a.out, a.threads)
         print("\n".join(summary(rows)))
         return 0
     print(f"wrote {report(a.results, a.docs, a.notes)}")

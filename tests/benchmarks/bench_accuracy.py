@@ -43,7 +43,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 sys.path.insert(0, str(HERE))
-from bench_cli import Commands, add_sweep  # noqa: E402
+from bench_cli import Commands, add_sweep, threads_per_job  # noqa: E402
 
 BASELINES = ("unchanged", "scaled")
 
@@ -228,7 +228,7 @@ def cmd_run(args) -> int:
         print("no (garment, body) pair matches", file=sys.stderr)
         return 2
     jobs = max(1, args.jobs)
-    threads = args.threads or max(1, (os.cpu_count() or 1) // jobs)
+    threads = threads_per_job(args.threads, jobs)
     out.mkdir(parents=True, exist_ok=True)
     meta = {"command": " ".join(shlex.quote(a) for a in sys.argv), "data": str(data), "base": args.base,
             "methods": methods, "jobs": jobs, "threads_per_job": threads, "machine": machine(),

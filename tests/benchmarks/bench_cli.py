@@ -3,10 +3,17 @@ runs them, the report subcommand's arguments, and the case sweep's inputs."""
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"
 DATA = Path("/work/shared/data")
+
+
+def threads_per_job(threads: int, jobs: int) -> int:
+    """OpenMP threads for each of ``jobs`` concurrent runs: ``threads`` when given (> 0), else
+    the cores shared out (at least one), so that concurrent runs do not oversubscribe them."""
+    return threads or max(1, (os.cpu_count() or 1) // jobs)
 
 
 class Commands:

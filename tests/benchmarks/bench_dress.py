@@ -35,7 +35,7 @@ sys.path.insert(0, str(ROOT / "native" / "python"))
 
 from accuracy_case import body_file  # noqa: E402
 from seamfit.fileio import atomic_write_text  # noqa: E402
-from bench_cli import Commands, add_sweep  # noqa: E402
+from bench_cli import Commands, add_sweep, threads_per_job  # noqa: E402
 
 MAX_GAP_MM = 2.0        # seams closed
 MIN_PHI_MM = -1.0       # nothing inside the body
@@ -82,7 +82,7 @@ def cmd_run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     todo = cases(args.data, args.garments.split(",") if args.garments else None,
                  args.cases.split(",") if args.cases else None)
-    args.threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
+    args.threads = threads_per_job(args.threads, args.jobs)
     meta = {"machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
                        f"Python {platform.python_version()}",
             "command": " ".join(sys.argv), "edge_length_cm": args.edge_length, "sdf_spacing_m": args.sdf_spacing,

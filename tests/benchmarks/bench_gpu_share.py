@@ -26,7 +26,7 @@ import threading
 import time
 from pathlib import Path
 
-from bench_cli import Commands
+from bench_cli import Commands, threads_per_job
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLES = ROOT / "sample_files"
@@ -74,7 +74,7 @@ def grading(k: int, out: Path, device: str, threads: int, env: dict) -> subproce
 
 def row(at_once: int, rounds: int, device: str, work: Path, env: dict) -> dict:
     """``at_once`` workers, each running ``rounds`` gradings one after the other."""
-    threads = max(1, (os.cpu_count() or 1) // at_once)
+    threads = threads_per_job(0, at_once)
     sampler = GpuSampler() if device == "cuda" else None
     if sampler:
         sampler.start()

@@ -31,7 +31,10 @@ as the bust span did (both drafting systems place the dart apexes from it) and b
 the rest of the front's growth (_bust_span_split). The pattern whose
 triangle gradients best match those stretches (a
 sparse least-squares solve per panel, the same kind of solve as a Poisson problem) is the
-level-scaled pattern. Equal bodies give the base pattern back exactly.
+level-scaled pattern. The stretches of neighbouring levels are no pattern together, so the
+fit settles between them; at each level the body supports, each panel's row then has its
+across-stretch corrected by what the fit missed of its growth (_held_girths), so the ease
+there is held. Equal bodies give the base pattern back exactly.
 """
 from __future__ import annotations
 
@@ -65,6 +68,10 @@ DART_ROW_M = 0.015
 # A dart's wedge stretches across by at least a fifth (its legs never meet: the outline
 # stays simple) and at most five times.
 DART_STRETCH = (0.2, 5.0)
+# A supported level's growth is held against the gradient fit's compromise in this many
+# corrections, each scaling a panel's row's across-stretch by at most these factors.
+HOLD_ROUNDS = 3
+HOLD_FACTOR = (0.5, 2.0)
 
 
 def base_levels(base_body) -> dict:
@@ -376,6 +383,7 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
         band = own & (np.abs(xbar[:, 2] - z) < LEVEL_STEP_M)
         if band.any() and np.mean(phi[band] < CONTACT_M) >= SUPPORT_FRACTION and np.isfinite(h1):
             dH[k] = h1 - h0
+    supported = np.isfinite(dH)
     # Below a supported hip, a garment closed around both legs (its section is one loop:
     # a skirt, a dress) hangs from the hip, as a straight skirt's hem is drafted from the
     # hip; trouser legs follow their own levels.
@@ -404,14 +412,15 @@ def girth_profile(mesh, xbar, base_body, target_body, base_sdf, levels: dict | N
         # A level that is no girth (an opening's edge, or no section) stretches as the
         # nearest one that is.
         sx = np.interp(zs, zs[ok], 1.0 + dH[ok] / G[ok])
-    return {"z": zs, "G": G, "dH": dH, "sx": sx, "hip_supported": hip_supported}
+    return {"z": zs, "G": G, "dH": dH, "sx": sx, "hip_supported": hip_supported, "supported": supported}
 
 
 def _stretch_targets(mesh, xbar, profile, zmap, sleeves=None, bust=None):
     """Per triangle the 2x2 target gradient S_t of the new pattern against the base one;
     ``sleeves`` (mask, sx, up) gives sleeve triangles the arm's girth stretch and its
     direction in place of the vertical; ``bust`` (bust_span) splits a darted bodice's front
-    growth at its bust points."""
+    growth at its bust points. Returns S, the base pattern's edge matrices E2, each
+    triangle's across direction in the pattern (the tape's) and the sleeve triangles' mask."""
     tri = np.asarray(mesh.triangles)
     p = 0.01 * np.asarray(mesh.uv_cm, dtype=float)
     zb, zt = zmap
@@ -450,7 +459,47 @@ def _stretch_targets(mesh, xbar, profile, zmap, sleeves=None, bust=None):
     eye = np.eye(2)[None]
     S = eye + (sx - 1)[:, None, None] * np.einsum("ti,tj->tij", d, d) \
         + (sy - 1)[:, None, None] * np.einsum("ti,tj->tij", e, e)
-    return S, E2
+    return S, E2, d, on_arm
+
+
+def _held_girths(mesh, xbar, S, E2, across, skip, profile, solve):
+    """S with each panel's across-stretch at each supported level corrected, HOLD_ROUNDS
+    times, by what the gradient fit ``solve`` (S -> pattern) missed of that level's growth.
+    The targets of neighbouring levels disagree (their sum is no pattern), so the fit
+    settles between them and a panel's row misses a few per cent of what its body grew;
+    that is ease lost or gained at a level the body holds. A level the garment hangs at
+    keeps the fit's compromise, which is how a flare's drafts grow too."""
+    tri = np.asarray(mesh.triangles)
+    z = xbar[tri].mean(axis=1)[:, 2]
+    zs = profile["z"][profile["supported"]]
+    if len(zs) == 0:
+        return S
+    held = ~np.asarray(skip, dtype=bool) & (np.min(np.abs(z[:, None] - zs[None, :]), axis=1) <= 0.5 * LEVEL_STEP_M)
+    if not held.any():
+        return S
+    # One row per panel and level.
+    row = np.floor(z / LEVEL_STEP_M).astype(np.int64) * len(mesh.panel_names) \
+        + np.asarray(mesh.vertex_panel)[tri[:, 0]]
+    area = 0.5 * np.abs(np.linalg.det(E2))
+    dd = np.einsum("ti,tj->tij", across, across)
+    want = np.einsum("ti,tij,tj->t", across, S, across) - 1.0
+    inv = np.linalg.inv(E2)
+    rows = [held & (row == r) for r in np.unique(row[held])]
+    rows = [m for m in rows if abs(float(area[m] @ want[m])) >= 1e-3 * float(area[m].sum())]
+    scale = np.ones(len(rows))
+    S0, S = S, S.copy()
+    for _ in range(HOLD_ROUNDS):
+        P = solve(S)[tri]
+        J = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2) @ inv
+        got = np.linalg.norm(np.einsum("tij,tj->ti", J, across), axis=1) - 1.0
+        for i, m in enumerate(rows):
+            gw, gg = float(area[m] @ want[m]), float(area[m] @ got[m])
+            # Only a growth (or shrink) the fit made in the right direction is scaled.
+            if gw * gg <= 0:
+                continue
+            scale[i] = float(np.clip(scale[i] * gw / gg, *HOLD_FACTOR))
+            S[m] = S0[m] + (want[m] * (scale[i] - 1.0))[:, None, None] * dd[m]
+    return S
 
 
 def bust_span(base_body, target_body, levels: dict) -> dict | None:
@@ -635,16 +684,21 @@ def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return
     if darted:
         zmap = with_bust_point(zmap, base_body, target_body)
     # A darted bodice's front grows between its bust points as the bust span did.
-    S, E2 = _stretch_targets(mesh, xbar, prof, zmap, sleeves,
-                             bust_span(base_body, target_body, levels) if darted else None)
+    S, E2, across, on_arm = _stretch_targets(mesh, xbar, prof, zmap, sleeves,
+                                             bust_span(base_body, target_body, levels) if darted else None)
     # Each dart's wedge joins the fit as triangles of its own, so its intake follows the
     # girths at its tip and its open end (_dart_wedges).
     wt, wS = _dart_wedges(mesh, xbar, prof, S)
     P = 0.01 * np.asarray(mesh.uv_cm, dtype=float)[wt]
     wE2 = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)
     ok = np.abs(np.linalg.det(wE2)) > 1e-12 if len(wt) else np.zeros(0, dtype=bool)
-    p = _solve_gradients(mesh, np.concatenate([S, wS[ok]]), np.concatenate([E2, wE2[ok]]),
-                         np.concatenate([np.asarray(mesh.triangles), wt[ok]]))
+    all_tri = np.concatenate([np.asarray(mesh.triangles), wt[ok]])
+
+    def solve(S_):
+        return _solve_gradients(mesh, np.concatenate([S_, wS[ok]]), np.concatenate([E2, wE2[ok]]), all_tri)
+
+    # Each supported level's growth held against the fit's compromise (_held_girths).
+    p = solve(_held_girths(mesh, xbar, S, E2, across, on_arm, prof, solve))
     if return_info:
         tri_panel = np.asarray(mesh.vertex_panel)[np.asarray(mesh.triangles)[:, 0]]
         sleeve_panels = [mesh.panel_names[k] for k in np.unique(tri_panel[sleeves[0]])]

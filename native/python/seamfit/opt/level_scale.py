@@ -495,7 +495,7 @@ def _held_girths(mesh, xbar, S, E2, across, skip, profile, solve):
         for i, m in enumerate(rows):
             gw, gg = float(area[m] @ want[m]), float(area[m] @ got[m])
             # Only a growth (or shrink) the fit made in the right direction is scaled.
-            if gw * gg <= 0:
+            if not gw * gg > 0:
                 continue
             scale[i] = float(np.clip(scale[i] * gw / gg, *HOLD_FACTOR))
             S[m] = S0[m] + (want[m] * (scale[i] - 1.0))[:, None, None] * dd[m]

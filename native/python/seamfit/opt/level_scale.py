@@ -41,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
-from scipy.sparse.linalg import spsolve
+from scipy.sparse.linalg import splu
 
 from ..body.measure import _Slicer, body_measurements
 from ..body.shape_model import landmarks_of
@@ -484,7 +484,10 @@ def _held_girths(mesh, xbar, S, E2, across, skip, profile, solve):
     dd = np.einsum("ti,tj->tij", across, across)
     want = np.einsum("ti,tij,tj->t", across, S, across) - 1.0
     inv = np.linalg.inv(E2)
-    rows = [held & (row == r) for r in np.unique(row[held])]
+    # Each row's triangles in mesh order (a stable sort of the held ones by row).
+    ids = np.flatnonzero(held)
+    ids = ids[np.argsort(row[ids], kind="stable")]
+    rows = np.split(ids, np.flatnonzero(np.diff(row[ids])) + 1)
     rows = [m for m in rows if abs(float(area[m] @ want[m])) >= 1e-3 * float(area[m].sum())]
     scale = np.ones(len(rows))
     S0, S = S, S.copy()
@@ -552,9 +555,10 @@ def _bust_span_split(sx, X, span: dict) -> np.ndarray:
     return out
 
 
-def _solve_gradients(mesh, S, E2, tri=None) -> np.ndarray:
-    """The pattern (N, 2) m whose per-triangle gradient best matches S (area-weighted
-    least squares), each panel keeping its centroid."""
+def _gradient_solver(mesh, E2, tri=None):
+    """S (T, 2, 2) -> the pattern (N, 2) m whose per-triangle gradient best matches S
+    (area-weighted least squares), each panel keeping its centroid. The normal matrix is
+    factored once, so the held growth's corrections (_held_girths) cost a solve each."""
     tri = np.asarray(mesh.triangles) if tri is None else tri
     p = 0.01 * np.asarray(mesh.uv_cm, dtype=float)
     n, T = len(p), len(tri)
@@ -565,20 +569,28 @@ def _solve_gradients(mesh, S, E2, tri=None) -> np.ndarray:
     cols = np.repeat(tri, 2, axis=0).ravel()
     vals = (w[:, None, None] * Dt).reshape(-1)
     A = sp.csr_matrix((vals, (rows, cols)), shape=(2 * T, n))
-    B = (w[:, None, None] * S.transpose(0, 2, 1)).reshape(2 * T, 2)  # row (t, j), column c = S[c, j]
     # Pin one vertex per panel (the problem is translation-invariant per panel).
     vp = np.asarray(mesh.vertex_panel)
     pins = np.array([np.flatnonzero(vp == k)[0] for k in range(len(mesh.panel_names))])
     big = 1e3 * float(w.max())
     Apin = sp.csr_matrix((np.full(len(pins), big), (np.arange(len(pins)), pins)), shape=(len(pins), n))
     M = sp.vstack([A, Apin]).tocsr()
-    rhs = np.vstack([B, big * p[pins]])
-    out = spsolve((M.T @ M).tocsc(), M.T @ rhs)
-    out = np.asarray(out).reshape(n, 2)
-    for k in range(len(mesh.panel_names)):
-        idx = vp == k
-        out[idx] += p[idx].mean(axis=0) - out[idx].mean(axis=0)
-    return out
+    lu = splu((M.T @ M).tocsc())
+    panels = [vp == k for k in range(len(mesh.panel_names))]
+
+    def solve(S):
+        B = (w[:, None, None] * S.transpose(0, 2, 1)).reshape(2 * T, 2)  # row (t, j), column c = S[c, j]
+        rhs = M.T @ np.vstack([B, big * p[pins]])
+        out = lu.solve(np.asarray(rhs))
+        for idx in panels:
+            out[idx] += p[idx].mean(axis=0) - out[idx].mean(axis=0)
+        return out
+    return solve
+
+
+def _solve_gradients(mesh, S, E2, tri=None) -> np.ndarray:
+    """The pattern (N, 2) m whose per-triangle gradient best matches S (_gradient_solver)."""
+    return _gradient_solver(mesh, E2, tri)(S)
 
 
 def _darts(mesh, xbar) -> list[dict]:
@@ -692,10 +704,11 @@ def level_scaled_pattern(mesh, xbar, base_body, target_body, base_sdf, *, return
     P = 0.01 * np.asarray(mesh.uv_cm, dtype=float)[wt]
     wE2 = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)
     ok = np.abs(np.linalg.det(wE2)) > 1e-12 if len(wt) else np.zeros(0, dtype=bool)
-    all_tri = np.concatenate([np.asarray(mesh.triangles), wt[ok]])
+    fit = _gradient_solver(mesh, np.concatenate([E2, wE2[ok]]),
+                           np.concatenate([np.asarray(mesh.triangles), wt[ok]]))
 
     def solve(S_):
-        return _solve_gradients(mesh, np.concatenate([S_, wS[ok]]), np.concatenate([E2, wE2[ok]]), all_tri)
+        return fit(np.concatenate([S_, wS[ok]]))
 
     # Each supported level's growth held against the fit's compromise (_held_girths).
     p = solve(_held_girths(mesh, xbar, S, E2, across, on_arm, prof, solve))

@@ -39,9 +39,10 @@ def test_method_setting(scene):
 def test_two_phase_matches_the_command_line(setup, cli_grade, cli_grade_two_phase):
     cli_pattern, cli_report, _ = cli_grade_two_phase
     assert cli_report["method"] == "two-phase"
-    # The baseline's pattern is not Algorithm 1's, so matching it shows the method got through.
+    # The baseline's pattern is not Algorithm 1's (by far more than the 1e-3 cm the add-on's
+    # result must match it to), so matching it shows the method got through.
     assert max(np.abs(p.outline_cm - q.outline_cm).max()
-               for p, q in zip(cli_pattern.panels, cli_grade[0].panels)) > 0.1
+               for p, q in zip(cli_pattern.panels, cli_grade[0].panels)) > 0.02
     setup.method = "TWO_PHASE"
     assert bpy.ops.seamfit.adjust() == {"FINISHED"}
     coll, ours = _graded_pattern()

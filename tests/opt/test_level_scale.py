@@ -621,7 +621,7 @@ def test_each_supported_level_grows_by_what_the_body_grew_there(skirt):
     row's growth. Held, each panel's row at a level the body supports comes within about
     1 % of its growth, and all of them together within half a per cent."""
     from seamfit.body.measure import body_measurements
-    from seamfit.opt.level_scale import (LEVEL_STEP_M, _held_girths, _solve_gradients,
+    from seamfit.opt.level_scale import (LEVEL_STEP_M, _gradient_solver, _held_girths,
                                          _stretch_targets, girth_profile, level_map)
     mesh, xbar, body, sdf = skirt
     lv = body_measurements(body)["levels_z_m"]
@@ -629,8 +629,7 @@ def test_each_supported_level_grows_by_what_the_body_grew_there(skirt):
     prof = girth_profile(mesh, xbar, body, target, sdf)
     S, E2, across, on_arm = _stretch_targets(mesh, xbar, prof, level_map(body, target))
 
-    def solve(S_):
-        return _solve_gradients(mesh, S_, E2)
+    solve = _gradient_solver(mesh, E2)
 
     tri = np.asarray(mesh.triangles)
     z = xbar[tri].mean(axis=1)[:, 2]

@@ -588,11 +588,6 @@ def _gradient_solver(mesh, E2, tri=None):
     return solve
 
 
-def _solve_gradients(mesh, S, E2, tri=None) -> np.ndarray:
-    """The pattern (N, 2) m whose per-triangle gradient best matches S (_gradient_solver)."""
-    return _gradient_solver(mesh, E2, tri)(S)
-
-
 def _darts(mesh, xbar) -> list[dict]:
     """The mesh's vertical darts: a stitch of one panel to itself whose pairs run from one
     tip (a vertex paired with itself) to the open end, and whose open end lies above or

@@ -154,6 +154,6 @@ def test_a_base_drape_keeps_to_the_builder_of_its_field(monkeypatch):
         prep.base_drape(mesh, pattern, body, sdf, fabric, settings)
     from dataclasses import asdict
     physics = {k: v for k, v in asdict(settings).items() if k != "device"}
-    before = prep.content_key("base-drape-3", mesh.cache_key(), body.vertices, body.faces, 0.02,
+    before = prep.content_key(prep.DRAPE_CACHE_VERSION, mesh.cache_key(), body.vertices, body.faces, 0.02,
                               asdict(fabric), physics)
     assert keys[0] == before and keys[1] != before

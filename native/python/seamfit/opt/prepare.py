@@ -33,6 +33,12 @@ from .transfer import transfer_garment
 
 ProgressFn = Callable[[dict], Optional[bool]]
 
+# The base drape's cache version. -3: a drape the GPU made before it followed the CPU's
+# solver rules may sit elsewhere. -4: the start positions no longer go through BLAS
+# (seamfit.sim.dressing), so a flare settles into the same folds on every machine; a drape
+# cached before may hold others.
+DRAPE_CACHE_VERSION = "base-drape-4"
+
 
 def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, *, progress=None,
                refresh: bool = False, accept_unsettled: bool = False):
@@ -44,12 +50,11 @@ def base_drape(mesh, pattern, body, sdf, fabric: Fabric, settings: SimSettings, 
     from ..sim.multilevel import drape_coarse_to_fine
     # The device is not an input of the physics: a drape made on the GPU serves the CPU too.
     physics = {k: v for k, v in asdict(settings).items() if k != "device"}
-    # -3: a drape the GPU made before it followed the CPU's solver rules may sit elsewhere.
     # A field built on the GPU holds exact nearest distances, the CPU's propagated ones differ
     # by a fraction of a millimetre at a few nodes: a drape keeps to the field it settled on
     # (the CPU's key is the same as before the GPU build existed).
     field = (sdf.info.get("device"),) if sdf.info.get("device") == "cuda" else ()
-    key = content_key("base-drape-3", mesh.cache_key(), body.vertices, body.faces, float(sdf.spacing),
+    key = content_key(DRAPE_CACHE_VERSION, mesh.cache_key(), body.vertices, body.faces, float(sdf.spacing),
                       asdict(fabric), physics, *field)
     hit = None if refresh else load_arrays("drape", key, expect={"x": mesh.x0.shape})
     if hit is not None and hit["x"].shape == mesh.x0.shape:

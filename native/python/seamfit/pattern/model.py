@@ -48,10 +48,11 @@ class Placement:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def to_world(self, uv_cm: np.ndarray) -> np.ndarray:
-        uv = np.asarray(uv_cm, dtype=float)
-        local = np.zeros((len(uv), 3))
-        local[:, :2] = 0.01 * uv
-        return local @ np.asarray(self.rotation).T + np.asarray(self.translation_m)
+        uv = 0.01 * np.asarray(uv_cm, dtype=float)
+        r = np.asarray(self.rotation, dtype=float)
+        # Elementwise, not a BLAS product: the start positions are then the same bits
+        # under every BLAS kernel set (the drape's folds follow them).
+        return uv[:, :1] * r[:, 0] + uv[:, 1:2] * r[:, 1] + np.asarray(self.translation_m, dtype=float)
 
 
 @dataclass

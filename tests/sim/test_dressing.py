@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from common import SHARED_DATA
-from seamfit.sim.dressing import _fit_circle
+from seamfit.pattern.sectors import fit_circle
 
 
 @pytest.mark.parametrize("centre", [(0.0, 0.0), (0.37, -1.9), (40.0, 25.0)])
@@ -21,13 +21,13 @@ def test_circle_fit_recovers_an_arc_far_from_the_origin(centre):
     ang = np.sort(rng.uniform(0.2, 1.4, 25))
     r = 0.31
     uv = np.c_[centre[0] + r * np.cos(ang), centre[1] + r * np.sin(ang)]
-    c, radius, rms = _fit_circle(uv)
+    c, radius, rms = fit_circle(uv)
     assert np.allclose(c, centre, atol=1e-9) and radius == pytest.approx(r, abs=1e-9) and rms < 1e-9
 
 
 def test_circle_fit_of_a_straight_line_is_no_circle():
     uv = np.c_[np.linspace(0.0, 1.0, 9), 2.0 * np.linspace(0.0, 1.0, 9) + 0.5]
-    c, radius, rms = _fit_circle(uv)
+    c, radius, rms = fit_circle(uv)
     assert math.isinf(radius) and math.isinf(rms)
 
 

@@ -15,6 +15,7 @@ from ..pattern.checks import output_checks
 from ..pattern.markings import carry_markings
 from ..settings import echo
 from ..pattern.darts import true_darts
+from ..pattern.sectors import true_sectors
 from ..pattern.refit import refit_pattern
 from ..pattern.symmetry import find_symmetries, symmetrize, symmetry_report
 from .fit import ease_losses, ease_report
@@ -99,6 +100,8 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
     symmetry_moves = symmetrize(outlines, symmetries)
     # Straight dart legs come out of the refit as their chords; true them first.
     dart_moves = true_darts(ctx.base_pattern, outlines)
+    # A circle skirt's panel keeps its drafted angle and stays a ring's sector.
+    sector_moves = true_sectors(ctx.base_pattern, outlines)
     refit = refit_pattern(ctx.base_pattern, outlines)
     markings = carry_markings(ctx.base_pattern, refit.pattern, mesh, uv_new)
     checks = output_checks(ctx.base_pattern, refit.pattern)
@@ -155,6 +158,7 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
         "panel_rotation_removed_deg": rotations,
         "symmetry": symmetry_report(refit.pattern, symmetries, symmetry_moves),
         "darts_trued_mm": {k: round(v, 3) for k, v in dart_moves.items()},
+        "sectors_trued_mm": {k: round(v, 3) for k, v in sector_moves.items()},
         "markings": markings,
         "ease_cm": {"base": ease_base, "result": ease_result, "losses": ease_losses(ease_base, ease_result)},
         "drape": {"max_sewing_gap_mm": float(gaps.max() * 1000) if len(gaps) else 0.0,

@@ -22,6 +22,7 @@ import math
 import numpy as np
 
 from ..errors import SolveError
+from ..pattern.sectors import fit_circle
 
 
 def sample_sdf(sdf, points: np.ndarray) -> np.ndarray:
@@ -111,35 +112,6 @@ def wrap_on_cylinder(x: np.ndarray, vertices: np.ndarray, axis: tuple[float, flo
     return out
 
 
-def _fit_circle(uv: np.ndarray):
-    """Least-squares circle (Kasa): centre (2,), radius, rms residual.
-
-    Solved in closed form from correctly rounded sums (math.fsum) about the points'
-    mean, not by LAPACK: the start positions, and with them the fold pattern a flare
-    settles into, are then the same bits under every BLAS kernel set (a circle skirt's
-    base drape differed by up to 9 cm between two of them)."""
-    uv = np.asarray(uv, dtype=np.float64)
-    m = np.array([math.fsum(uv[:, 0]) / len(uv), math.fsum(uv[:, 1]) / len(uv)])
-    u, v = uv[:, 0] - m[0], uv[:, 1] - m[1]
-    w = -(u * u + v * v)
-    # Normal equations of [u v 1] s = w; centred, the constant column decouples.
-    suu, svv, suv = math.fsum(u * u), math.fsum(v * v), math.fsum(u * v)
-    suw, svw = math.fsum(u * w), math.fsum(v * w)
-    det = suu * svv - suv * suv
-    if not det > 0:
-        return m, math.inf, math.inf
-    d_u = (suw * svv - svw * suv) / det
-    d_v = (svw * suu - suw * suv) / det
-    f = math.fsum(w) / len(uv)
-    c = np.array([-0.5 * d_u, -0.5 * d_v])
-    r2 = c[0] * c[0] + c[1] * c[1] - f
-    c = c + m
-    if not (r2 > 0):
-        return c, math.inf, math.inf
-    r = math.sqrt(r2)
-    return c, r, float(np.sqrt(np.mean((np.linalg.norm(uv - c, axis=1) - r) ** 2)))
-
-
 def _waist_arc(mesh, k: int, anchor: int | None):
     """The run of panel k's outline through the anchor vertex, between the
     nearest pattern corners on either side (the waist curve for a hint panel)."""
@@ -167,7 +139,7 @@ def cone_sector(mesh, k: int, anchor: int | None, min_angle: float = 0.6):
     if run is None or len(run) < 5:
         return None
     uv = 0.01 * np.asarray(mesh.uv_cm)[run]
-    c, r, rms = _fit_circle(uv)
+    c, r, rms = fit_circle(uv)
     if not math.isfinite(r) or rms > 0.02 * r:
         return None
     ang = np.unwrap(np.arctan2(uv[:, 1] - c[1], uv[:, 0] - c[0]))

@@ -53,7 +53,7 @@ def test_an_untouched_sector_is_left_as_it_is():
     base = load_pattern(CIRCLE)
     outlines = _outlines(base)
     before = {k: v.copy() for k, v in outlines.items()}
-    moved = true_sectors(base, outlines)
+    moved, _ = true_sectors(base, outlines)
     assert set(moved) == {"skirt_back", "skirt_front"}
     for k in outlines:                              # to the files' 1e-4 cm rounding
         np.testing.assert_allclose(outlines[k], before[k], atol=5e-4)
@@ -63,7 +63,7 @@ def test_a_distorted_sector_comes_out_a_sector_with_the_base_angle_and_the_grade
     base = load_pattern(CIRCLE)
     outlines = _distorted(base)
     graded = {k: v.copy() for k, v in outlines.items()}
-    moved = true_sectors(base, outlines)
+    moved, _ = true_sectors(base, outlines)
     for s in annular_sectors(base):
         name, o, g = s["panel"], outlines[s["panel"]], graded[s["panel"]]
         assert moved[name] > 1.0                                  # it did move (mm)
@@ -111,7 +111,7 @@ def test_sides_graded_apart_are_left_alone():
     run = s["sides"][0]
     o[run] += np.linspace(0.0, 1.0, len(run))[:, None] * (o[run[-1]] - o[run[0]]) * 0.02   # 2 % longer
     before = o.copy()
-    moved = true_sectors(base, outlines)
+    moved, _ = true_sectors(base, outlines)
     assert s["panel"] not in moved
     np.testing.assert_array_equal(outlines[s["panel"]], before)
 
@@ -125,3 +125,17 @@ def test_a_sector_whose_hem_is_stitched_is_not_trued():
                     b=StitchSide(panel=other.name, range=(0, 3)), orientation="reversed")
     frilled = dataclasses.replace(base, stitches=list(base.stitches) + [stitch])
     assert s["panel"] not in {x["panel"] for x in annular_sectors(frilled)}
+
+
+def test_points_inside_the_panel_go_through_the_same_map():
+    base = load_pattern(CIRCLE)
+    outlines = _distorted(base)
+    s = annular_sectors(base)[0]
+    ob = np.asarray(base.panel(s["panel"]).outline_cm, dtype=float)
+    # the base outline itself, and a point halfway between the waist and the hem
+    mid_run = s["sides"][0]
+    inside = 0.5 * (ob[mid_run[0]] + ob[mid_run[-1]])[None, :]
+    _, carried = true_sectors(base, outlines, carry={s["panel"]: np.vstack([ob, inside])})
+    o = outlines[s["panel"]]
+    np.testing.assert_allclose(carried[s["panel"]][:-1], o, atol=5e-4)   # the files' rounding
+    np.testing.assert_allclose(carried[s["panel"]][-1], 0.5 * (o[mid_run[0]] + o[mid_run[-1]]), atol=5e-4)

@@ -100,10 +100,17 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
     symmetry_moves = symmetrize(outlines, symmetries)
     # Straight dart legs come out of the refit as their chords; true them first.
     dart_moves = true_darts(ctx.base_pattern, outlines)
-    # A circle skirt's panel keeps its drafted angle and stays a ring's sector.
-    sector_moves = true_sectors(ctx.base_pattern, outlines)
+    # A circle skirt's panel keeps its drafted angle and stays a ring's sector. Its markings
+    # go through the same map (the mesh itself stays the drape's rest shape).
+    panel_of = np.asarray(mesh.vertex_panel)
+    vertices = {name: np.flatnonzero(panel_of == k) for k, name in enumerate(mesh.panel_names)}
+    sector_moves, sector_vertices = true_sectors(
+        ctx.base_pattern, outlines, carry={name: mesh.uv_cm[idx] for name, idx in vertices.items()})
+    uv_marks = uv_new.copy()
+    for name, uv in sector_vertices.items():
+        uv_marks[vertices[name]] = uv
     refit = refit_pattern(ctx.base_pattern, outlines)
-    markings = carry_markings(ctx.base_pattern, refit.pattern, mesh, uv_new)
+    markings = carry_markings(ctx.base_pattern, refit.pattern, mesh, uv_marks)
     checks = output_checks(ctx.base_pattern, refit.pattern)
 
     shared = ctx.extra.get("shared")

@@ -124,22 +124,42 @@ def annular_sectors(base: Pattern) -> list[dict]:
     return out
 
 
-def _rigid_onto(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
-    """src moved by the rotation and translation that best take it onto dst (2D
-    Procrustes in closed form)."""
+def _rigid_fit(src: np.ndarray, dst: np.ndarray):
+    """The rotation and translation that best take src onto dst (2D Procrustes in closed
+    form), as a map of points."""
     cs, cd = src.mean(axis=0), dst.mean(axis=0)
     a, b = src - cs, dst - cd
     ang = math.atan2(float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])),
                      float(np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
     c, s = math.cos(ang), math.sin(ang)
-    return np.column_stack([c * a[:, 0] - s * a[:, 1], s * a[:, 0] + c * a[:, 1]]) + cd
+
+    def move(p: np.ndarray) -> np.ndarray:
+        q = np.asarray(p, dtype=float) - cs
+        return np.column_stack([c * q[:, 0] - s * q[:, 1], s * q[:, 0] + c * q[:, 1]]) + cd
+    return move
 
 
-def true_sectors(base: Pattern, outlines: dict[str, np.ndarray]) -> dict[str, float]:
+def _to_sector(p: np.ndarray, sec: dict, r_in: float, along: float, rad: np.ndarray | None = None) -> np.ndarray:
+    """Base points p taken to the trued sector: the same angle about the centre, the
+    waist's radius r_in, distances from the waist scaled by ``along``."""
+    d = np.asarray(p, dtype=float) - sec["centre"]
+    if rad is None:
+        rad = np.hypot(d[:, 0], d[:, 1])
+    a = np.arctan2(d[:, 1], d[:, 0])
+    r_new = r_in + (rad - sec["r_in"]) * along
+    return np.column_stack([r_new * np.cos(a), r_new * np.sin(a)])
+
+
+def true_sectors(base: Pattern, outlines: dict[str, np.ndarray],
+                 carry: dict[str, np.ndarray] | None = None) -> tuple[dict[str, float], dict[str, np.ndarray]]:
     """Replaces, in place, the graded outline of every annular-sector panel of ``base``
     (see the module) by the sector with the base's angle, the graded waist's length and the
-    graded side seams' mean length. Returns the largest move per trued panel, mm."""
+    graded side seams' mean length. ``carry`` (panel -> points in the base panel's
+    coordinates, e.g. its mesh vertices) are taken through the same map, so what lies inside
+    the panel stays where the trued outline puts it. Returns the largest move per trued
+    panel (mm) and the carried points of the trued panels."""
     moved: dict[str, float] = {}
+    carried: dict[str, np.ndarray] = {}
     for sec in annular_sectors(base):
         name = sec["panel"]
         if name not in outlines:
@@ -149,12 +169,7 @@ def true_sectors(base: Pattern, outlines: dict[str, np.ndarray]) -> dict[str, fl
         if abs(sides[0] - sides[1]) > SIDE_MISMATCH_CM:
             continue
         ob = np.asarray(base.panel(name).outline_cm, dtype=float)
-        d = ob - sec["centre"]
-        rad = np.linalg.norm(d, axis=1)
-        ang = np.arctan2(d[:, 1], d[:, 0])
-        # the arcs exactly on their circles (the files round to 1e-4 cm)
-        rad[np.concatenate(sec["inner"])] = sec["r_in"]
-        rad[np.concatenate(sec["outer"])] = sec["r_out"]
+        ang = np.arctan2(ob[:, 1] - sec["centre"][1], ob[:, 0] - sec["centre"][0])
         # waist radius whose polyline through the base's angles is as long as the graded
         # waist (the polyline is linear in the radius)
         unit_waist = sum(polyline_length(np.column_stack([np.cos(ang[run]), np.sin(ang[run])]))
@@ -164,8 +179,15 @@ def true_sectors(base: Pattern, outlines: dict[str, np.ndarray]) -> dict[str, fl
             continue
         r_in = waist / unit_waist
         along = 0.5 * (sides[0] + sides[1]) / (sec["r_out"] - sec["r_in"])
-        r_new = r_in + (rad - sec["r_in"]) * along
-        trued = _rigid_onto(np.column_stack([r_new * np.cos(ang), r_new * np.sin(ang)]), o)
+        # the arcs exactly on their circles (the files round to 1e-4 cm)
+        rad = np.hypot(ob[:, 0] - sec["centre"][0], ob[:, 1] - sec["centre"][1])
+        rad[np.concatenate(sec["inner"])] = sec["r_in"]
+        rad[np.concatenate(sec["outer"])] = sec["r_out"]
+        trued = _to_sector(ob, sec, r_in, along, rad)
+        place = _rigid_fit(trued, o)
+        trued = place(trued)
         moved[name] = 10.0 * float(np.max(np.linalg.norm(trued - o, axis=1)))
         o[:] = trued
-    return moved
+        if carry is not None and name in carry:
+            carried[name] = place(_to_sector(carry[name], sec, r_in, along))
+    return moved, carried

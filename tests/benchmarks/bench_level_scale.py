@@ -38,13 +38,12 @@ def base_context(base, b0, edge_length_cm: float):
 
 
 def level_scaled(base, ctx, b0, b1, xbar=None):
-    """The level-scaled start as a pattern (curves refitted) and its mesh's (N, 2) points (m)."""
-    from seamfit.mesh import outline_from_uv
+    """The level-scaled start as a pattern (through the grading's own output path) and its
+    mesh's (N, 2) points (m)."""
     from seamfit.opt.level_scale import level_scaled_pattern
-    from seamfit.pattern.refit import refit_pattern
+    from seamfit.opt.output import adjusted_pattern
     p = level_scaled_pattern(ctx.mesh, ctx.xbar if xbar is None else xbar, b0, b1, ctx.base_sdf)
-    pattern = refit_pattern(base, outline_from_uv(ctx.mesh, 100.0 * p)).pattern
-    return pattern, p
+    return adjusted_pattern(base, ctx.mesh, 100.0 * p).refit.pattern, p
 
 
 def perturbed_starts(base, ctx, b0, b1, truth, p0, sigma: float, rng) -> dict:

@@ -48,11 +48,9 @@ def scaled_on_mesh(mesh, param, base, sx: float, sy: float) -> np.ndarray:
 
 
 def pattern_of(ctx, theta):
-    from seamfit.mesh import outline_from_uv
-    from seamfit.opt.output import remove_panel_rotations
-    from seamfit.pattern.refit import refit_pattern
-    uv, _ = remove_panel_rotations(ctx.mesh, 100.0 * ctx.param.pattern(theta))
-    return refit_pattern(ctx.base_pattern, outline_from_uv(ctx.mesh, uv)).pattern
+    """The pattern a grading stopped at theta would hand the user."""
+    from seamfit.opt.output import adjusted_pattern
+    return adjusted_pattern(ctx.base_pattern, ctx.mesh, 100.0 * ctx.param.pattern(theta)).refit.pattern
 
 
 def run_case(data: str, garment: str, body: str, grade_kw: dict) -> dict:

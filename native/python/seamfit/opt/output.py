@@ -86,31 +86,56 @@ def mismatch_mm(x, xtilde) -> float:
     return float(1000.0 * np.sqrt(np.mean(d * d))) if len(d) else 0.0
 
 
+@dataclass
+class AdjustedPattern:
+    """The pattern a grading hands the user, made from the mesh's new pattern coordinates."""
+    refit: object                      # seamfit.pattern.refit.RefitResult; .pattern is the result
+    uv_cm: np.ndarray                  # every mesh vertex, panels turned back onto their grain
+    uv_marks_cm: np.ndarray            # the same, trued panels through their truing map (markings)
+    rotations: dict
+    symmetries: list
+    symmetry_moves: dict
+    dart_moves: dict
+    sector_moves: dict
+
+
+def adjusted_pattern(base_pattern, mesh, uv_raw_cm: np.ndarray) -> AdjustedPattern:
+    """The adjusted pattern from new mesh coordinates (cm): each panel turned back onto the
+    base's grain, symmetries restored, straight darts and circle skirts trued, the curves
+    refitted. Every grading and every benchmark that scores a search's state goes through
+    this one path."""
+    uv_new, rotations = remove_panel_rotations(mesh, uv_raw_cm)
+    outlines = outline_from_uv(mesh, uv_new)
+    # Symmetric panels and left/right pairs of the base stay so (docs/grading.md, "Symmetry").
+    symmetries = find_symmetries(base_pattern)
+    symmetry_moves = symmetrize(outlines, symmetries)
+    # Straight dart legs come out of the refit as their chords; true them first.
+    dart_moves = true_darts(base_pattern, outlines)
+    # A circle skirt's panel keeps its drafted angle and stays a ring's sector. Its markings
+    # go through the same map (the mesh itself stays the drape's rest shape).
+    panel_of = np.asarray(mesh.vertex_panel)
+    vertices = {name: np.flatnonzero(panel_of == k) for k, name in enumerate(mesh.panel_names)}
+    sector_moves, sector_vertices = true_sectors(
+        base_pattern, outlines, carry={name: mesh.uv_cm[idx] for name, idx in vertices.items()})
+    uv_marks = uv_new.copy()
+    for name, uv in sector_vertices.items():
+        uv_marks[vertices[name]] = uv
+    return AdjustedPattern(refit=refit_pattern(base_pattern, outlines), uv_cm=uv_new, uv_marks_cm=uv_marks,
+                           rotations=rotations, symmetries=symmetries, symmetry_moves=symmetry_moves,
+                           dart_moves=dart_moves, sector_moves=sector_moves)
+
+
 def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
     """The adjusted pattern, checks and report of a finished search."""
     settings, mesh, param, sim = ctx.settings, ctx.mesh, ctx.param, ctx.sim
     f0, terms0 = ctx.objective.objective(out.x_start, out.theta_start)
     f_final, terms_final = ctx.objective.objective(out.x, out.theta)
 
-    uv_raw = 100.0 * param.pattern(out.theta)
-    uv_new, rotations = remove_panel_rotations(mesh, uv_raw)
-    outlines = outline_from_uv(mesh, uv_new)
-    # Symmetric panels and left/right pairs of the base stay so (docs/grading.md, "Symmetry").
-    symmetries = find_symmetries(ctx.base_pattern)
-    symmetry_moves = symmetrize(outlines, symmetries)
-    # Straight dart legs come out of the refit as their chords; true them first.
-    dart_moves = true_darts(ctx.base_pattern, outlines)
-    # A circle skirt's panel keeps its drafted angle and stays a ring's sector. Its markings
-    # go through the same map (the mesh itself stays the drape's rest shape).
-    panel_of = np.asarray(mesh.vertex_panel)
-    vertices = {name: np.flatnonzero(panel_of == k) for k, name in enumerate(mesh.panel_names)}
-    sector_moves, sector_vertices = true_sectors(
-        ctx.base_pattern, outlines, carry={name: mesh.uv_cm[idx] for name, idx in vertices.items()})
-    uv_marks = uv_new.copy()
-    for name, uv in sector_vertices.items():
-        uv_marks[vertices[name]] = uv
-    refit = refit_pattern(ctx.base_pattern, outlines)
-    markings = carry_markings(ctx.base_pattern, refit.pattern, mesh, uv_marks)
+    adjusted = adjusted_pattern(ctx.base_pattern, mesh, 100.0 * param.pattern(out.theta))
+    uv_new, refit, rotations = adjusted.uv_cm, adjusted.refit, adjusted.rotations
+    symmetries, symmetry_moves = adjusted.symmetries, adjusted.symmetry_moves
+    dart_moves, sector_moves = adjusted.dart_moves, adjusted.sector_moves
+    markings = carry_markings(ctx.base_pattern, refit.pattern, mesh, adjusted.uv_marks_cm)
     checks = output_checks(ctx.base_pattern, refit.pattern)
 
     shared = ctx.extra.get("shared")

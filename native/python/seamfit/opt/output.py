@@ -132,9 +132,7 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
     f_final, terms_final = ctx.objective.objective(out.x, out.theta)
 
     adjusted = adjusted_pattern(ctx.base_pattern, mesh, 100.0 * param.pattern(out.theta))
-    uv_new, refit, rotations = adjusted.uv_cm, adjusted.refit, adjusted.rotations
-    symmetries, symmetry_moves = adjusted.symmetries, adjusted.symmetry_moves
-    dart_moves, sector_moves = adjusted.dart_moves, adjusted.sector_moves
+    refit = adjusted.refit
     markings = carry_markings(ctx.base_pattern, refit.pattern, mesh, adjusted.uv_marks_cm)
     checks = output_checks(ctx.base_pattern, refit.pattern)
 
@@ -187,10 +185,10 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
         "checks": checks,
         "refit": {"ok": refit.ok, "max_deviation_mm": refit.max_deviation_overall_mm,
                   "failed": [list(map(str, f_)) for f_ in refit.failed], "notes": refit.notes},
-        "panel_rotation_removed_deg": rotations,
-        "symmetry": symmetry_report(refit.pattern, symmetries, symmetry_moves),
-        "darts_trued_mm": {k: round(v, 3) for k, v in dart_moves.items()},
-        "sectors_trued_mm": {k: round(v, 3) for k, v in sector_moves.items()},
+        "panel_rotation_removed_deg": adjusted.rotations,
+        "symmetry": symmetry_report(refit.pattern, adjusted.symmetries, adjusted.symmetry_moves),
+        "darts_trued_mm": {k: round(v, 3) for k, v in adjusted.dart_moves.items()},
+        "sectors_trued_mm": {k: round(v, 3) for k, v in adjusted.sector_moves.items()},
         "markings": markings,
         "ease_cm": {"base": ease_base, "result": ease_result, "losses": ease_losses(ease_base, ease_result)},
         "drape": {"max_sewing_gap_mm": float(gaps.max() * 1000) if len(gaps) else 0.0,
@@ -203,5 +201,5 @@ def finish(ctx, method: str, out: SearchOutcome) -> GradeResult:
         "settings": echo(settings, "grade"),    # the user's settings (seamfit.settings); strengths above
         **out.details,
     }
-    return GradeResult(pattern=refit.pattern, uv_cm=uv_new, x=out.x, xbar=ctx.xbar, xtilde=ctx.xtilde, mesh=mesh,
+    return GradeResult(pattern=refit.pattern, uv_cm=adjusted.uv_cm, x=out.x, xbar=ctx.xbar, xtilde=ctx.xtilde, mesh=mesh,
                        report=report, history=out.history)

@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 
+from .compare import rigid_fit
 from .model import Pattern, Panel, polyline_length, range_indices
 
 __all__ = ["fit_circle", "annular_sectors", "true_sectors"]
@@ -124,19 +125,10 @@ def annular_sectors(base: Pattern) -> list[dict]:
     return out
 
 
-def _rigid_fit(src: np.ndarray, dst: np.ndarray):
-    """The rotation and translation that best take src onto dst (2D Procrustes in closed
-    form), as a map of points."""
-    cs, cd = src.mean(axis=0), dst.mean(axis=0)
-    a, b = src - cs, dst - cd
-    ang = math.atan2(float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])),
-                     float(np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
-    c, s = math.cos(ang), math.sin(ang)
-
-    def move(p: np.ndarray) -> np.ndarray:
-        q = np.asarray(p, dtype=float) - cs
-        return np.column_stack([c * q[:, 0] - s * q[:, 1], s * q[:, 0] + c * q[:, 1]]) + cd
-    return move
+def _placed(p: np.ndarray, angle: float, t: np.ndarray) -> np.ndarray:
+    """Points p rotated by angle and moved by t (elementwise, as compare.rigid_fit gives them)."""
+    c, s = math.cos(angle), math.sin(angle)
+    return np.column_stack([c * p[:, 0] - s * p[:, 1] + t[0], s * p[:, 0] + c * p[:, 1] + t[1]])
 
 
 def _to_sector(p: np.ndarray, sec: dict, r_in: float, along: float, rad: np.ndarray | None = None) -> np.ndarray:
@@ -184,10 +176,10 @@ def true_sectors(base: Pattern, outlines: dict[str, np.ndarray],
         rad[np.concatenate(sec["inner"])] = sec["r_in"]
         rad[np.concatenate(sec["outer"])] = sec["r_out"]
         trued = _to_sector(ob, sec, r_in, along, rad)
-        place = _rigid_fit(trued, o)
-        trued = place(trued)
+        angle, t = rigid_fit(trued, o)
+        trued = _placed(trued, angle, t)
         moved[name] = 10.0 * float(np.max(np.linalg.norm(trued - o, axis=1)))
         o[:] = trued
         if carry is not None and name in carry:
-            carried[name] = place(_to_sector(carry[name], sec, r_in, along))
+            carried[name] = _placed(_to_sector(carry[name], sec, r_in, along), angle, t)
     return moved, carried
